@@ -1,0 +1,95 @@
+"""Consistent initial states: coordinates checked against the constraints, speeds solved.
+
+A user gives every coordinate and *some* rates (coordinate rates such as
+``disk.psi_dot`` or speeds such as ``disk.vbar_x``); the remaining speeds follow from
+the constraints ``G u + e = 0``. Where the constraints leave freedom, the rates the
+user did not mention are made as small as possible (zero when they can be).
+"""
+from __future__ import annotations
+
+import casadi as ca
+import numpy as np
+import scipy.linalg
+
+from .equations import SystemEquations
+from .errors import InconsistentStateError, ModelError
+
+POSITION_TOL = 1e-9
+VELOCITY_TOL = 1e-9
+
+
+def coordinate_vector(eqs: SystemEquations, coordinates: dict[str, float]) -> np.ndarray:
+    """Coordinates in model order from a name -> value map (every coordinate required)."""
+    names = eqs.model.coordinate_names
+    unknown = sorted(set(coordinates) - set(names))
+    if unknown:
+        raise ModelError(f"unknown coordinate(s) {unknown}; the model's coordinates are {names}")
+    missing = [n for n in names if n not in coordinates]
+    if missing:
+        raise ModelError(f"initial coordinates missing for {missing}")
+    q = np.array([float(coordinates[n]) for n in names])
+    bad = [n for n, v in zip(names, q) if not np.isfinite(v)]
+    if bad:
+        raise ModelError(f"initial coordinate(s) {bad} are not finite")
+    return q
+
+
+def rate_rows(eqs: SystemEquations, q: np.ndarray) -> tuple[list[str], np.ndarray]:
+    """Names and rows ``S`` such that ``S u`` gives each named rate at ``q``.
+
+    Names are the coordinate rates ``<body>.<coordinate>_dot`` and the speeds
+    ``<body>.vbar_x`` ... ``<body>.omega_z``.
+    """
+    N = np.asarray(ca.Function("N", [eqs.q], [ca.jacobian(eqs.qdot, eqs.u)])(q))
+    names = [f"{n}_dot" for n in eqs.model.coordinate_names] + eqs.model.speed_names
+    return names, np.vstack([N, np.eye(eqs.nu)])
+
+
+def consistent_state(eqs: SystemEquations, coordinates: dict[str, float], rates: dict[str, float], t0: float = 0.0) -> tuple[np.ndarray, np.ndarray]:
+    """Return ``(q0, u0)`` satisfying every constraint at ``t0``.
+
+    Raises :class:`InconsistentStateError` naming the constraint that the coordinates
+    violate, or the given rates that contradict the constraints, and
+    :class:`RedundantConstraintsError` if constraints repeat each other.
+    """
+    q = coordinate_vector(eqs, coordinates)
+    for b in eqs.bodies:
+        sl = eqs.model.coordinate_names.index(b.coordinate_names[0])
+        b.check_singularity(q[sl : sl + b.q.numel()], f"at t = {t0:g}")
+    G, e, phi, _, _ = (np.asarray(x) for x in eqs.constraint_functions(q, np.zeros(eqs.nu), t0))
+    phi = phi.ravel()
+    for k, i in enumerate(eqs.holonomic):
+        if abs(phi[k]) > POSITION_TOL:
+            raise InconsistentStateError(
+                f"initial coordinates violate constraint '{eqs.constraint_names[i]}' at position "
+                f"level: residual {phi[k]:.3g} (tolerance {POSITION_TOL:g}). Fix the initial "
+                "coordinates (e.g. the height of a body in contact)."
+            )
+    eqs.check_redundancy(q, t0)
+    names, S = rate_rows(eqs, q)
+    unknown = sorted(set(rates) - set(names))
+    if unknown:
+        raise ModelError(f"unknown rate(s) {unknown}; valid names: {names}")
+    given = [names.index(n) for n in rates]
+    values = np.array([float(rates[n]) for n in rates])
+    if not np.all(np.isfinite(values)):
+        raise ModelError(f"initial rates must be finite, got {rates}")
+    A = np.vstack([G, S[given]]) if given else G
+    b = np.concatenate([-e.ravel(), values])
+    u, *_ = np.linalg.lstsq(A, b, rcond=None)
+    residual = A @ u - b
+    if np.abs(residual).max(initial=0.0) > VELOCITY_TOL * max(1.0, np.abs(b).max(initial=0.0)):
+        bad = [eqs.constraint_names[i] for i in range(eqs.nc) if abs(residual[i]) > VELOCITY_TOL]
+        raise InconsistentStateError(
+            f"the given initial rates {sorted(rates)} contradict the constraints "
+            f"{bad or eqs.constraint_names}: no speeds satisfy both (residual "
+            f"{np.abs(residual).max():.3g}). Give fewer rates and let the constraints fix the rest."
+        )
+    Z = scipy.linalg.null_space(A)
+    if Z.size:
+        mentioned = set(given)
+        rest = [i for i in range(len(names) - eqs.nu) if i not in mentioned]
+        R = S[rest]
+        w, *_ = np.linalg.lstsq(R @ Z, -R @ u, rcond=None)
+        u = u + Z @ w
+    return q, u

@@ -1,0 +1,60 @@
+"""Whirling rigid body on a driven shaft (paper sec. 3.4, Fig. 5).
+
+A body of mass 1.2 kg is hinged at its material point X_A (at the origin, on the shaft
+axis E3) to a shaft spinning at Omega(t) = omega + omega_amplitude sin(t). 3-1-3 Euler
+angles (psi, theta, phi); constraints ``E_k . v_A = 0``, ``g^1 . omega = Omega(t)``,
+``g^3 . omega = 0``, all in the joint ``shaft``: ``F_c = sum lambda_k E_k`` at X_A,
+``M_c = lambda_4 g^1 + lambda_5 g^3``; ``lambda_4`` is the motor torque and
+``lambda_4 Omega`` its power (eq. 27).
+
+Defaults (SI, SCENES.md): center of mass offset from X_A in the body basis
+(0.08, -0.45, 0.06); inertia about the center of mass
+[[0.040, 0.003, 0.006], [0.003, 0.020, -0.005], [0.006, -0.005, 0.050]];
+Omega = 2 rad/s (``omega_amplitude = 0.5`` gives the time-varying variant);
+initial psi = 0, theta = pi/2 + 0.5, theta_dot = 0, phi = 0; gravity 9.81 along -E3.
+"""
+from __future__ import annotations
+
+import math
+
+import casadi as ca
+import numpy as np
+
+from ocp_constraints import joints
+from ocp_constraints.model import Model
+from ocp_constraints.rotations import EulerSequence
+from ocp_constraints.scenes import Scene
+
+DESCRIPTION = "body hinged to a shaft driven at Omega(t) (sec. 3.4): motor torque and power"
+
+DEFAULTS = {
+    "mass": 1.2,
+    "com_x": 0.08, "com_y": -0.45, "com_z": 0.06,
+    "J11": 0.040, "J22": 0.020, "J33": 0.050, "J12": 0.003, "J13": 0.006, "J23": -0.005,
+    "omega": 2.0,
+    "omega_amplitude": 0.0,
+    "theta0": math.pi / 2 + 0.5,
+    "theta_dot0": 0.0,
+    "gravity": 9.81,
+    "t_final": 10.0,
+}
+
+
+def build(p: dict[str, float]) -> Scene:
+    model = Model("whirling", gravity=(0.0, 0.0, -p["gravity"]), parameters=p)
+    J = [[p["J11"], p["J12"], p["J13"]], [p["J12"], p["J22"], p["J23"]], [p["J13"], p["J23"], p["J33"]]]
+    body = model.add_body("body", p["mass"], J, rotation="313")
+    com = np.array([p["com_x"], p["com_y"], p["com_z"]])
+    A = body.point("A", -com)
+    t = model.t
+    Omega = p["omega"] + p["omega_amplitude"] * ca.sin(t)
+    joints.ball_and_socket(model, "shaft", A)
+    joints.driven_axis(model, "shaft", body, Omega, index=1,
+                       rate_integral=p["omega"] * t + p["omega_amplitude"] * (1 - ca.cos(t)), initial_angle=0.0)
+    joints.fixed_angle(model, "shaft", body, index=3, value=0.0)
+    angles = [0.0, p["theta0"], 0.0]
+    Q0 = np.asarray(EulerSequence("313").rotation(angles))
+    xbar = Q0 @ com  # X_A at the origin: xbar = -Q r_A
+    coordinates = {"body.x": xbar[0], "body.y": xbar[1], "body.z": xbar[2],
+                   "body.psi": 0.0, "body.theta": p["theta0"], "body.phi": 0.0}
+    return Scene(model, coordinates, {"body.theta_dot": p["theta_dot0"]}, t_final=p["t_final"])
