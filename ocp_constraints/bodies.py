@@ -70,7 +70,7 @@ class Body:
     mass
         kg, positive.
     inertia
-        3x3 symmetric positive-definite inertia tensor about the center of mass, in the
+        3x3 symmetric inertia tensor (principal moments non-negative, triangle inequality) about the center of mass, in the
         body basis ``e_i`` (kg m^2). Products of inertia are allowed.
     rotation
         ``"313"``, ``"321"`` (any Euler sequence) or ``"quaternion"``.
@@ -92,8 +92,14 @@ class Body:
         J = _finite_array(self.inertia, (3, 3), f"body '{self.name}': inertia")
         if not np.allclose(J, J.T, rtol=0, atol=1e-12 * max(1.0, np.abs(J).max())):
             raise ModelError(f"body '{self.name}': inertia tensor must be symmetric, got {J.tolist()}")
-        if np.linalg.eigvalsh(J).min() <= 0:
-            raise ModelError(f"body '{self.name}': inertia tensor must be positive definite, got {J.tolist()}")
+        principal = np.linalg.eigvalsh(J)
+        scale = max(principal.max(), 1e-300)
+        # A thin rod has a zero principal moment; anything else must be a physical tensor.
+        if principal.min() < -1e-12 * scale or principal.max() <= 0 or principal.sum() - 2 * principal.max() < -1e-12 * scale:
+            raise ModelError(
+                f"body '{self.name}': inertia tensor {J.tolist()} is not physical: principal moments "
+                f"{principal.tolist()} must be non-negative and each at most the sum of the other two"
+            )
         self.inertia = J
         self.rotation = rotation_from_name(self.rotation)
         n_rot = self.rotation.n_parameters

@@ -1,0 +1,31 @@
+"""Thin disk rolling without slipping on a rough horizontal plane (paper sec. 3.3, Fig. 4).
+
+The disk of ``sliding_disk`` (m = 1 kg, R = 0.15 m). Joint ``contact``:
+``E_k . v_P = 0`` (k = 1, 2, 3), so ``F_c = sum lambda_k E_k`` at X_P (normal force
+``lambda_3`` plus static friction ``lambda_1, lambda_2``), ``M_c = 0``.
+
+Initial state: x = y = psi = phi = 0, theta = 1.2, psi' = 2.0, theta' = 0.3,
+phi' = 10.0; the center-of-mass velocity follows from the rolling condition.
+"""
+from __future__ import annotations
+
+from ocp_constraints import joints
+from ocp_constraints.model import Model
+from ocp_constraints.scenes import Scene
+
+from ._disk import add_disk, disk_coordinates
+
+DESCRIPTION = "disk rolling on a rough plane (sec. 3.3): normal and friction forces at the contact"
+
+DEFAULTS = {
+    "mass": 1.0, "radius": 0.15, "gravity": 9.81, "t_final": 10.0,
+    "theta0": 1.2, "psi_dot0": 2.0, "theta_dot0": 0.3, "phi_dot0": 10.0,
+}
+
+
+def build(p: dict[str, float]) -> Scene:
+    model = Model("rolling_disk", gravity=(0.0, 0.0, -p["gravity"]), parameters=p)
+    disk, P = add_disk(model, p["mass"], p["radius"])
+    joints.rolling_contact(model, "contact", P)
+    rates = {"disk.psi_dot": p["psi_dot0"], "disk.theta_dot": p["theta_dot0"], "disk.phi_dot": p["phi_dot0"]}
+    return Scene(model, disk_coordinates(p["radius"], p["theta0"]), rates, t_final=p["t_final"])
