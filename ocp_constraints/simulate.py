@@ -108,6 +108,25 @@ def _project(eqs: SystemEquations, q: np.ndarray, u: np.ndarray, t: float) -> tu
     return q, u, dq_total, du_norm
 
 
+def _failure_message(eqs: SystemEquations, q: np.ndarray, t0: float, t1: float, exc: Exception) -> str:
+    """Why the integrator failed: a nearby Euler singularity, or the solver's own words."""
+    start = 0
+    for b in eqs.bodies:
+        n = b.q.numel()
+        rot = b.rotation
+        if not isinstance(rot, UnitQuaternion):
+            volume = abs(float(rot.basis_volume(q[start + 3 : start + n])))
+            if volume < 0.05:
+                return (
+                    f"integrator failed between t = {t0:g} and {t1:g}: body '{b.name}' is approaching the "
+                    f"singularity of its Euler sequence '{rot.axes}' ({rot.singular_angle_hint()}; theta = "
+                    f"{q[start + 4]:.4g} rad, |g_1 . (g_2 x g_3)| = {volume:.2e} at t = {t0:g}). "
+                    "Use rotation='quaternion' for this body, or an Euler sequence whose singularity the motion avoids."
+                )
+        start += n
+    return f"integrator failed between t = {t0:g} and {t1:g}: {exc}"
+
+
 def simulate(
     eqs: SystemEquations,
     q0: np.ndarray,
@@ -162,9 +181,12 @@ def simulate(
         try:
             res = integrators(n)(x0=np.concatenate([q, u]), p=np.concatenate([[times[k]], w]))
         except RuntimeError as exc:
-            raise SimulationError(
-                f"integrator failed between t = {times[k]:g} and {times[k + n]:g}: {exc}", partial=traj
-            ) from exc
+            if n > 1:
+                # Redo the segment one sample at a time, to keep every good sample and
+                # to find where (and why) the integration breaks down.
+                per_segment = 1
+                continue
+            raise SimulationError(_failure_message(eqs, q, times[k], times[k + 1], exc), partial=traj) from exc
         X = np.asarray(res["xf"]).reshape(eqs.nq + eqs.nu, n)
         W = np.asarray(res["qf"]).reshape(eqs.nc, n)
         if not np.all(np.isfinite(X)):
