@@ -12,6 +12,8 @@ body 2 center of mass at r2 = (0.03, -0.40, -0.02) from X_C,
 J2 = [[0.045, -0.002, 0.003], [-0.002, 0.008, 0.001], [0.003, 0.001, 0.042]].
 Initial 3-1-3 angles (0, pi/2 + 0.4, 0.2) with rates (0.8, 0, 0.5) for body 1,
 (0.5, pi/2 - 0.3, -0.3) with rates (-0.5, 1.0, 0) for body 2. Gravity 9.81 along -E3.
+``--param quaternion=1`` parameterizes both rotations by unit quaternions instead (the
+same motion and loads, without the 3-1-3 singularity).
 """
 from __future__ import annotations
 
@@ -21,12 +23,12 @@ import numpy as np
 
 from ocp_constraints import joints
 from ocp_constraints.model import Model
-from ocp_constraints.rotations import EulerSequence
+from ocp_constraints.rotations import EulerSequence, quaternion_from_rotation
 from ocp_constraints.scenes import Scene
 
 DESCRIPTION = "two-body chain on ball-and-socket joints (sec. 6): equal and opposite joint forces"
 
-DEFAULTS = {"m1": 1.0, "m2": 0.8, "link_length": 1.0, "gravity": 9.81, "t_final": 10.0}
+DEFAULTS = {"m1": 1.0, "m2": 0.8, "link_length": 1.0, "gravity": 9.81, "t_final": 10.0, "quaternion": 0.0}
 
 J1 = [[0.090, 0.002, 0.004], [0.002, 0.010, 0.003], [0.004, 0.003, 0.085]]
 J2 = [[0.045, -0.002, 0.003], [-0.002, 0.008, 0.001], [0.003, 0.001, 0.042]]
@@ -39,8 +41,9 @@ ANGLES2, RATES2 = (0.5, math.pi / 2 - 0.3, -0.3), (-0.5, 1.0, 0.0)
 def build(p: dict[str, float]) -> Scene:
     c1 = np.array([0.0, -p["link_length"], 0.0])
     model = Model("ball_socket", gravity=(0.0, 0.0, -p["gravity"]), parameters=p)
-    b1 = model.add_body("body1", p["m1"], J1)
-    b2 = model.add_body("body2", p["m2"], J2)
+    rotation = "quaternion" if p["quaternion"] else "313"
+    b1 = model.add_body("body1", p["m1"], J1, rotation)
+    b2 = model.add_body("body2", p["m2"], J2, rotation)
     O = b1.point("O", -R1)
     C1 = b1.point("C", c1 - R1)
     C2 = b2.point("C", -R2)
@@ -51,8 +54,13 @@ def build(p: dict[str, float]) -> Scene:
     x1 = Q1 @ R1
     x2 = Q1 @ c1 + Q2 @ R2
     coordinates, rates = {}, {}
-    for name, x, ang, rt in (("body1", x1, ANGLES1, RATES1), ("body2", x2, ANGLES2, RATES2)):
+    for name, x, Q, ang, rt in (("body1", x1, Q1, ANGLES1, RATES1), ("body2", x2, Q2, ANGLES2, RATES2)):
         coordinates.update({f"{name}.{c}": float(v) for c, v in zip("xyz", x)})
-        coordinates.update({f"{name}.{c}": v for c, v in zip(("psi", "theta", "phi"), ang)})
-        rates.update({f"{name}.{c}_dot": v for c, v in zip(("psi", "theta", "phi"), rt)})
+        if p["quaternion"]:
+            coordinates.update({f"{name}.{c}": v for c, v in zip(("qw", "qx", "qy", "qz"), quaternion_from_rotation(Q))})
+            omega = np.asarray(seq.angular_velocity(ang, rt)).ravel()
+            rates.update({f"{name}.omega_{c}": w for c, w in zip("xyz", omega)})
+        else:
+            coordinates.update({f"{name}.{c}": v for c, v in zip(("psi", "theta", "phi"), ang)})
+            rates.update({f"{name}.{c}_dot": v for c, v in zip(("psi", "theta", "phi"), rt)})
     return Scene(model, coordinates, rates, t_final=p["t_final"])
