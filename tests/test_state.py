@@ -1,0 +1,61 @@
+"""Consistent initial states, and the errors for states that are not."""
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+from ocp_constraints import SystemEquations, build_scene, consistent_state
+from ocp_constraints.errors import InconsistentStateError, ModelError
+from ocp_constraints.rotations import SingularConfigurationError
+
+
+def _eqs(name, **params):
+    scene = build_scene(name, params)
+    return scene, SystemEquations(scene.model)
+
+
+def test_rolling_disk_center_velocity_follows_from_the_rolling_condition():
+    scene, eqs = _eqs("rolling_disk")
+    q, u = consistent_state(eqs, scene.coordinates, scene.rates)
+    # v_P = 0 with P = xbar - R e2'': vbar = omega x (x_P - xbar) reversed, in closed form.
+    R, theta = 0.15, 1.2
+    psid, thetad, phid = 2.0, 0.3, 10.0
+    e1p = np.array([1.0, 0, 0])  # g_2 at psi = 0
+    e2pp = np.array([0, math.cos(theta), math.sin(theta)])
+    omega = psid * np.array([0, 0, 1.0]) + thetad * e1p + phid * np.array([0, -math.sin(theta), math.cos(theta)])
+    vbar = -np.cross(omega, -R * e2pp)
+    assert np.allclose(u[:3], vbar, atol=1e-14)
+    assert np.allclose(u[3:], omega, atol=1e-14)
+
+
+def test_singular_initial_euler_angles_are_reported_with_body_and_advice():
+    scene, eqs = _eqs("sliding_disk", theta0=1e-6)
+    with pytest.raises(SingularConfigurationError) as info:
+        consistent_state(eqs, scene.coordinates, scene.rates)
+    msg = str(info.value)
+    assert "body 'disk'" in msg and "'313'" in msg and "theta" in msg and "quaternion" in msg
+
+
+def test_coordinates_off_the_constraint_are_named():
+    scene, eqs = _eqs("sliding_disk")
+    coords = dict(scene.coordinates, **{"disk.z": scene.coordinates["disk.z"] + 1e-3})
+    with pytest.raises(InconsistentStateError, match=r"constraint 'contact.n' at position level"):
+        consistent_state(eqs, coords, scene.rates)
+
+
+def test_rates_that_contradict_a_constraint_are_rejected():
+    scene, eqs = _eqs("whirling")
+    with pytest.raises(InconsistentStateError, match=r"contradict the constraints \['shaft.drive'\]"):
+        consistent_state(eqs, scene.coordinates, {"body.psi_dot": 5.0})
+
+
+def test_unknown_and_missing_names_are_errors():
+    scene, eqs = _eqs("whirling")
+    with pytest.raises(ModelError, match="unknown rate"):
+        consistent_state(eqs, scene.coordinates, {"body.spin": 1.0})
+    coords = dict(scene.coordinates)
+    del coords["body.phi"]
+    with pytest.raises(ModelError, match=r"missing for \['body.phi'\]"):
+        consistent_state(eqs, coords, {})
