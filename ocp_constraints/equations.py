@@ -19,6 +19,8 @@ from functools import cached_property
 import casadi as ca
 import numpy as np
 
+from .bodies import Point
+from .constraints import equipollent_moment
 from .errors import ModelError, RedundantConstraintsError
 from .model import Model
 
@@ -180,6 +182,20 @@ class SystemEquations:
             rows += [d["F"], d["M"], d["point"], d["power"]]
         out = ca.vertcat(*rows) if rows else ca.SX(0, 1)
         return ca.Function("joint_loads", [self.q, self.u, self.t, lam], [out], ["q", "u", "t", "lam"], ["loads"])
+
+    def load_about_function(self, channel: str, point: Point) -> ca.Function:
+        """``(q, u, t, lam) -> (F, M_A)``: the joint load moved to ``point`` (eqs. 32-33).
+
+        ``channel`` is a joint name, or ``<joint>@<body>`` for a two-body joint. The force
+        is unchanged; the moment gains ``(x_C - x_A) x F``.
+        """
+        names = [ch.prefix for ch in self.load_channels]
+        if channel not in names:
+            raise ModelError(f"no joint load '{channel}'; joint loads: {names}")
+        lam = ca.SX.sym("lam", self.nc)
+        d = self.joint_load_expressions(lam)[names.index(channel)]
+        M_A = equipollent_moment(d["F"], d["M"], d["point"], point.position)
+        return ca.Function("load_about", [self.q, self.u, self.t, lam], [d["F"], M_A], ["q", "u", "t", "lam"], ["F", "M"])
 
     def generalized_constraint_forces(self, q, lam, t: float = 0.0, coordinates: ca.Function | None = None) -> np.ndarray:
         """``Phi_Gamma = sum_k lambda_k A_k,Gamma`` (paper eqs. 38-41).

@@ -99,6 +99,15 @@ class Trajectory:
             k += 1
         return cols
 
+    def load_about(self, channel: str, point) -> tuple[np.ndarray, np.ndarray]:
+        """Force and moment of a joint load moved to another material point (eq. 33).
+
+        Returns arrays (samples x 3) in the fixed basis; ``point`` is a model ``Point``.
+        """
+        f = self.eqs.load_about_function(channel, point)
+        out = [f(q, u, t, lam) for q, u, t, lam in zip(self.q, self.u, self.t, self.lam)]
+        return (np.array([np.asarray(F).ravel() for F, _ in out]), np.array([np.asarray(M).ravel() for _, M in out]))
+
     def energy(self) -> tuple[np.ndarray, np.ndarray]:
         """Kinetic and gravitational potential energy at every sample (J)."""
         f = self.eqs.energy_function
