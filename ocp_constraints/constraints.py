@@ -29,11 +29,11 @@ class BodyShare:
 
     @property
     def has_force(self) -> bool:
-        return self.f.nnz() > 0 and not ca.is_equal(ca.densify(self.f), ca.SX.zeros(3, 1))
+        return self.f.nnz() > 0
 
     @property
     def has_moment(self) -> bool:
-        return self.h.nnz() > 0 and not ca.is_equal(ca.densify(self.h), ca.SX.zeros(3, 1))
+        return self.h.nnz() > 0
 
 
 @dataclass(eq=False)
@@ -91,8 +91,8 @@ class Joint:
         F, H = [], []
         for c in self.constraints:
             s = next((s for s in c.shares if s.body is body), None)
-            F.append(ca.SX.zeros(1, 3) if s is None else s.f.T)
-            H.append(ca.SX.zeros(1, 3) if s is None else s.h.T)
+            F.append(ca.SX(1, 3) if s is None else s.f.T)
+            H.append(ca.SX(1, 3) if s is None else s.h.T)
         return point, ca.vertcat(*F), ca.vertcat(*H)
 
 
@@ -165,8 +165,8 @@ def derive_prescription(
         pts = [p for _, p in mine if p is not None]
         point = application_points.get(b.name) or (pts[0] if pts else b.com)
         application_points.setdefault(b.name, point)
-        f = ca.SX.zeros(3, 1)
-        h = ca.SX.zeros(3, 1)
+        f = ca.SX(3, 1)  # structural zeros: a pure-force constraint builds no moment terms
+        h = ca.SX(3, 1)
         for label, p in mine:
             if p is None:
                 h = h + grads[label]
@@ -175,7 +175,7 @@ def derive_prescription(
                 f = f + grads[label]
                 if p is not point:
                     h = h + ca.cross(p.position - point.position, grads[label])
-        shares.append(BodyShare(b, point, ca.simplify(f), ca.simplify(h)))
+        shares.append(BodyShare(b, point, ca.sparsify(ca.simplify(f)), ca.sparsify(ca.simplify(h))))
     return e, shares
 
 

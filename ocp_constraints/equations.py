@@ -72,7 +72,7 @@ class SystemEquations:
         self.forces = self._applied_and_gyroscopic(bodies)
         if self.nc:
             pi = self.to_speeds(ca.vertcat(*[c.expression for c in self.constraints]))
-            self.G = ca.jacobian(pi, self.u)
+            self.G = ca.sparsify(ca.jacobian(pi, self.u))
             self.e = ca.vertcat(*[c.e for c in self.constraints])
             self.gamma = ca.jtimes(pi, self.q, self.qdot) + ca.jacobian(pi, self.t)
         else:
