@@ -109,22 +109,25 @@ class Model:
             raise ModelError(f"model '{self.name}' already has a constraint named '{name}'")
         joint_name = joint or name
         j = self.joints.get(joint_name) or Joint(joint_name)
+        # Work on a copy of the joint's points: a rejected constraint changes nothing.
+        points = dict(j.points)
         if point is not None:
-            existing = j.points.get(point.body.name)
+            existing = points.get(point.body.name)
             if existing is not None and existing is not point:
                 raise ModelError(
                     f"joint '{joint_name}' already acts at {existing.label} on body "
                     f"'{point.body.name}'; a joint has one application point per body"
                 )
-            j.points[point.body.name] = point
+            points[point.body.name] = point
         e, shares = derive_prescription(
-            name, expression, list(self.bodies.values()), self.t, self.input_vector, j.points
+            name, expression, list(self.bodies.values()), self.t, self.input_vector, points
         )
         if position is not None:
             position = ca.SX(position)
             if position.shape != (1, 1):
                 raise ModelError(f"constraint '{name}': position form must be scalar")
         c = Constraint(name, joint_name, expression, e, shares, position)
+        j.points = points
         j.constraints.append(c)
         self.joints[joint_name] = j
         return c
