@@ -129,6 +129,13 @@ class SystemEquations:
         )
 
     @cached_property
+    def position_form_mismatch(self) -> ca.Function:
+        """``(q, u, t) -> d(phi)/dt - pi`` for the holonomic constraints (zero on the manifold)."""
+        pi = (self.G @ self.u + self.e)[self.holonomic] if self.holonomic else ca.SX(0, 1)
+        rate = ca.jtimes(self.phi, self.q, self.qdot) + ca.jacobian(self.phi, self.t)
+        return ca.Function("position_form_mismatch", [self.q, self.u, self.t], [rate - pi], ["q", "u", "t"], ["mismatch"])
+
+    @cached_property
     def mass_matrix_function(self) -> ca.Function:
         return ca.Function("mass_matrix", [self.q], [self.mass_matrix], ["q"], ["M"])
 

@@ -45,6 +45,23 @@ def rate_rows(eqs: SystemEquations, q: np.ndarray) -> tuple[list[str], np.ndarra
     return names, np.vstack([N, np.eye(eqs.nu)])
 
 
+def _check_position_forms(eqs: SystemEquations, q: np.ndarray, t0: float) -> None:
+    """Each position form ``phi`` must have ``d(phi)/dt = pi`` (checked at ``q`` for random speeds)."""
+    if not eqs.holonomic:
+        return
+    rng = np.random.default_rng(0)
+    for _ in range(3):
+        u = rng.standard_normal(eqs.nu)
+        mismatch = np.asarray(eqs.position_form_mismatch(q, u, t0)).ravel()
+        for k, i in enumerate(eqs.holonomic):
+            if abs(mismatch[k]) > 1e-7 * (1 + np.abs(u).max()):
+                raise ModelError(
+                    f"the position form of constraint '{eqs.constraint_names[i]}' does not match the "
+                    f"constraint: d(phi)/dt - pi = {mismatch[k]:.3g} at the initial state. phi(q, t) must "
+                    "be the time integral of pi (check its sign and scale), or leave it out."
+                )
+
+
 def consistent_state(eqs: SystemEquations, coordinates: dict[str, float], rates: dict[str, float], t0: float = 0.0) -> tuple[np.ndarray, np.ndarray]:
     """Return ``(q0, u0)`` satisfying every constraint at ``t0``.
 
@@ -65,6 +82,7 @@ def consistent_state(eqs: SystemEquations, coordinates: dict[str, float], rates:
                 f"level: residual {phi[k]:.3g} (tolerance {POSITION_TOL:g}). Fix the initial "
                 "coordinates (e.g. the height of a body in contact)."
             )
+    _check_position_forms(eqs, q, t0)
     eqs.check_redundancy(q, t0)
     names, S = rate_rows(eqs, q)
     unknown = sorted(set(rates) - set(names))

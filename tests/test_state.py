@@ -59,3 +59,19 @@ def test_unknown_and_missing_names_are_errors():
     del coords["body.phi"]
     with pytest.raises(ModelError, match=r"missing for \['body.phi'\]"):
         consistent_state(eqs, coords, {})
+
+
+def test_a_position_form_that_is_not_the_integral_of_the_constraint_is_named():
+    import casadi as ca
+
+    from ocp_constraints import Model
+
+    model = Model("slider", gravity=(0, 0, -9.81))
+    block = model.add_body("block", 1.0, np.eye(3) * 0.1)
+    # E3 . vbar = 0 integrates to z = 0, not to -z / 2.
+    model.add_constraint("floor", block.vbar[2], position=-block.xbar[2] / 2)
+    eqs = SystemEquations(model)
+    coords = {f"block.{c}": 0.0 for c in ("x", "y", "z", "psi", "theta", "phi")}
+    coords["block.theta"] = 1.0
+    with pytest.raises(ModelError, match="position form of constraint 'floor'"):
+        consistent_state(eqs, coords, {})
