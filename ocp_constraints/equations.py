@@ -55,6 +55,9 @@ class SystemEquations:
         self.u = ca.vertcat(*[b.u for b in bodies])
         self.t = model.t
         self.inputs = model.input_vector
+        # Rates of the inputs: needed where an input enters a constraint (a prescribed
+        # motion such as a shaft speed Omega(t) chosen by an optimizer).
+        self.input_rates = ca.SX.sym("input_rates", self.inputs.numel())
         self.nq, self.nu, self.nc = self.q.numel(), self.u.numel(), len(self.constraints)
 
         # Point velocity symbols become v_C = vbar + omega x (x_C - xbar) (eq. 8).
@@ -75,6 +78,8 @@ class SystemEquations:
             self.G = ca.sparsify(ca.jacobian(pi, self.u))
             self.e = ca.vertcat(*[c.e for c in self.constraints])
             self.gamma = ca.jtimes(pi, self.q, self.qdot) + ca.jacobian(pi, self.t)
+            if self.inputs.numel():
+                self.gamma += ca.jtimes(pi, self.inputs, self.input_rates)
         else:
             self.G = ca.SX(0, self.nu)
             self.e = self.gamma = ca.SX(0, 1)
@@ -106,7 +111,7 @@ class SystemEquations:
     # -- numeric functions (built once, on first use) --------------------------------
     @cached_property
     def forward_dynamics(self) -> ca.Function:
-        """``(q, u, t, inputs) -> (u', lambda)`` from the KKT system.
+        """``(q, u, t, inputs, input_rates) -> (u', lambda)`` from the KKT system.
 
         ``[M, -G^T; G, 0] [u'; lambda] = [f; -gamma]`` is solved by sparse QR; the mass
         matrix is never inverted.
@@ -115,8 +120,8 @@ class SystemEquations:
         rhs = ca.vertcat(self.forces, -self.gamma)
         z = ca.solve(K, rhs)
         return ca.Function(
-            "forward_dynamics", [self.q, self.u, self.t, self.inputs], [z[: self.nu], z[self.nu :]],
-            ["q", "u", "t", "inputs"], ["udot", "lam"],
+            "forward_dynamics", [self.q, self.u, self.t, self.inputs, self.input_rates], [z[: self.nu], z[self.nu :]],
+            ["q", "u", "t", "inputs", "input_rates"], ["udot", "lam"],
         )
 
     @cached_property

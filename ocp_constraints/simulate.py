@@ -56,10 +56,16 @@ class _Integrators:
         self.opts = opts
         t0, tau = ca.SX.sym("t0"), ca.SX.sym("tau")
         t = t0 + tau
-        udot, lam = e.forward_dynamics(e.q, e.u, t, e.inputs)
+        # Inputs vary linearly over one output interval: w(tau) = w0 + tau (w1 - w0) / dt.
+        n_in = e.inputs.numel()
+        w0, w1 = ca.SX.sym("w0", n_in), ca.SX.sym("w1", n_in)
+        rate = (w1 - w0) / opts.dt
+        w = w0 + tau * rate
+        udot, lam = e.forward_dynamics(e.q, e.u, t, w, rate)
         qdot = ca.substitute(e.qdot, e.t, t)
-        power = -lam * ca.substitute(e.e, e.t, t) if e.nc else ca.SX(0, 1)
-        self.dae = {"x": ca.vertcat(e.q, e.u), "p": ca.vertcat(t0, e.inputs), "t": tau,
+        econ = ca.substitute(ca.substitute(e.e, e.t, t), e.inputs, w)
+        power = -lam * econ if e.nc else ca.SX(0, 1)
+        self.dae = {"x": ca.vertcat(e.q, e.u), "p": ca.vertcat(t0, w0, w1), "t": tau,
                     "ode": ca.vertcat(qdot, udot), "quad": power}
         self._cache: dict[int, ca.Function] = {}
 
@@ -138,8 +144,8 @@ def simulate(
 ) -> Trajectory:
     """Integrate from a consistent state ``(q0, u0)`` at ``t0`` to ``t_final``.
 
-    ``inputs(t)`` gives the actuator inputs, held constant over each projection
-    interval. Returns a :class:`Trajectory` sampled every ``options.dt``. A singular
+    ``inputs(t)`` gives the actuator inputs (and prescribed motions), taken linear
+    between output samples, so an input that enters a constraint has a known rate. Returns a :class:`Trajectory` sampled every ``options.dt``. A singular
     Euler configuration or an integrator failure raises :class:`SimulationError` whose
     ``partial`` attribute holds the trajectory up to the last good sample.
     """
@@ -153,7 +159,8 @@ def simulate(
     integrators = _Integrators(eqs, opts)
     n_steps = int(np.ceil((t_final - t0) / opts.dt - 1e-9))
     times = t0 + opts.dt * np.arange(n_steps + 1)
-    per_segment = max(1, int(round(opts.projection_interval / opts.dt)))
+    # With inputs, CVODES restarts at every sample (the inputs are linear per sample).
+    per_segment = 1 if n_in else max(1, int(round(opts.projection_interval / opts.dt)))
     traj = Trajectory(eqs)
     q, u = np.asarray(q0, float).copy(), np.asarray(u0, float).copy()
     work = np.zeros(eqs.nc)
@@ -161,7 +168,7 @@ def simulate(
     def input_at(t: float) -> np.ndarray:
         return np.zeros(n_in) if not n_in else np.asarray(inputs(t), float).reshape(n_in)
 
-    def record(k: int, q, u, work, w, drift_q=0.0, drift_u=0.0) -> None:
+    def record(k: int, q, u, work, drift_q=0.0, drift_u=0.0) -> None:
         start = 0
         try:
             for b in eqs.bodies:
@@ -170,14 +177,16 @@ def simulate(
                 start += n
         except SingularConfigurationError as exc:
             raise SimulationError(str(exc), partial=traj) from exc
-        udot, lam = eqs.forward_dynamics(q, u, times[k], w)
+        w = input_at(times[k])
+        rate = (input_at(times[k + 1]) - w) / opts.dt if k < n_steps else (w - input_at(times[k - 1])) / opts.dt
+        udot, lam = eqs.forward_dynamics(q, u, times[k], w, rate)
         traj.append(times[k], q, u, np.asarray(udot).ravel(), np.asarray(lam).ravel(), w, work, drift_q, drift_u)
 
-    record(0, q, u, work, input_at(times[0]))
+    record(0, q, u, work)
     k = 0
     while k < n_steps:
         n = min(per_segment, n_steps - k)
-        w = input_at(times[k])
+        w = np.concatenate([input_at(times[k]), input_at(times[k + n])])
         try:
             res = integrators(n)(x0=np.concatenate([q, u]), p=np.concatenate([[times[k]], w]))
         except RuntimeError as exc:
@@ -192,9 +201,9 @@ def simulate(
         if not np.all(np.isfinite(X)):
             raise SimulationError(f"state became non-finite between t = {times[k]:g} and {times[k + n]:g}", partial=traj)
         for j in range(n - 1):
-            record(k + j + 1, X[: eqs.nq, j], X[eqs.nq :, j], work + W[:, j], w)
+            record(k + j + 1, X[: eqs.nq, j], X[eqs.nq :, j], work + W[:, j])
         q, u, dq, du = _project(eqs, X[: eqs.nq, -1], X[eqs.nq :, -1], times[k + n])
         work = work + W[:, -1]
-        record(k + n, q, u, work, w, dq, du)
+        record(k + n, q, u, work, dq, du)
         k += n
     return traj

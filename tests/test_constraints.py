@@ -433,8 +433,8 @@ def test_sliding_disk_constraint_written_at_center_of_mass_is_equipollent(indep_
         # Put u on the manifold with the independent constraint z' = R cos(theta) theta'.
         G = np.asarray(eqs2.constraint_functions(q, u, t)[0])
         u = u - np.linalg.pinv(G) @ (G @ u)
-        ud1, lam1 = (np.asarray(x).ravel() for x in eqs1.forward_dynamics(q, u, t, []))
-        ud2, lam2 = (np.asarray(x).ravel() for x in eqs2.forward_dynamics(q, u, t, []))
+        ud1, lam1 = (np.asarray(x).ravel() for x in eqs1.forward_dynamics(q, u, t, [], []))
+        ud2, lam2 = (np.asarray(x).ravel() for x in eqs2.forward_dynamics(q, u, t, [], []))
         assert abs(lam1[0] - lam2[0]) <= 1e-12 * max(1, abs(lam1[0]))
         assert np.abs(ud1 - ud2).max() <= 1e-12 * max(1, np.abs(ud1).max())
         l1 = np.asarray(eqs1.loads_function(q, u, t, lam1)).ravel()
@@ -511,8 +511,8 @@ def test_whirling_pin_written_at_center_of_mass_gives_same_multipliers_and_equip
     for _ in range(20):
         q, t = c1.case.random_q(rng), rng.uniform(0, 10)
         u = c1.consistent_speeds(q, t, rng)
-        ud1, lam1 = (np.asarray(x).ravel() for x in eqs1.forward_dynamics(q, u, t, []))
-        ud2, lam2 = (np.asarray(x).ravel() for x in eqs2.forward_dynamics(q, u, t, []))
+        ud1, lam1 = (np.asarray(x).ravel() for x in eqs1.forward_dynamics(q, u, t, [], []))
+        ud2, lam2 = (np.asarray(x).ravel() for x in eqs2.forward_dynamics(q, u, t, [], []))
         scale = max(1, np.abs(lam1).max())
         assert np.abs(lam1 - lam2).max() <= 1e-11 * scale
         assert np.abs(ud1 - ud2).max() <= 1e-11 * max(1, np.abs(ud1).max())

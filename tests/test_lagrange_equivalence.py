@@ -143,7 +143,7 @@ def _random_whirling_states(kin, params, n, seed):
 def _compare_at(eqs, lag, q, u, t, udot_lib=None, lam_lib=None):
     """Largest relative differences in ``q''`` and ``lambda`` and in ``Phi``."""
     if udot_lib is None:
-        udot_lib, lam_lib = (np.asarray(x).ravel() for x in eqs.forward_dynamics(q, u, t, []))
+        udot_lib, lam_lib = (np.asarray(x).ravel() for x in eqs.forward_dynamics(q, u, t, [], []))
     qd = lag.rates(q, u)
     qdd_lag, lam_lag = lag.solve(q, qd, t)
     qdd_lib = lag.accelerations(q, u, udot_lib)

@@ -33,7 +33,7 @@ def test_quaternion_forward_dynamics_matches_euler_pointwise():
         for body in range(2):
             xb, ang = q[6 * body : 6 * body + 3], q[6 * body + 3 : 6 * body + 6]
             qq += [*xb, *quaternion_from_rotation(np.asarray(seq.rotation(ang)))]
-        udot_q, lam_q = eqs_q.forward_dynamics(np.array(qq), u, t, [])
-        udot_e, _ = eqs_e.forward_dynamics(q, u, t, [])
+        udot_q, lam_q = eqs_q.forward_dynamics(np.array(qq), u, t, [], [])
+        udot_e, _ = eqs_e.forward_dynamics(q, u, t, [], [])
         assert np.allclose(np.asarray(lam_q).ravel(), lam, rtol=0, atol=1e-11)
         assert np.allclose(np.asarray(udot_q).ravel(), np.asarray(udot_e).ravel(), rtol=0, atol=1e-11)
