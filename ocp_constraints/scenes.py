@@ -108,6 +108,19 @@ def build_scene(name_or_path: str, overrides: dict[str, object] | None = None) -
     return scene
 
 
+def build_task(name_or_path: str, task: str | None, overrides: dict[str, object] | None = None):
+    """The optimal-control problem ``task`` of a scene (its ``TASKS`` table); default: the first."""
+    module = load_scene_module(name_or_path)
+    tasks = getattr(module, "TASKS", {})
+    if not tasks:
+        raise SceneError(f"scene '{name_or_path}' defines no optimal-control tasks (a TASKS table)")
+    name = task or next(iter(tasks))
+    if name not in tasks:
+        raise SceneError(f"scene '{name_or_path}' has no task '{name}'; its tasks: {', '.join(tasks)}")
+    params = resolve_parameters(name_or_path, module.DEFAULTS, overrides or {})
+    return name, tasks[name](params)
+
+
 def parse_param_arguments(items: list[str]) -> dict[str, str]:
     """``["name=value", ...]`` -> dict; a malformed item is an error naming it."""
     out = {}

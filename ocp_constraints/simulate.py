@@ -22,6 +22,7 @@ from .equations import SystemEquations
 from .errors import ModelError, SimulationError
 from .rotations import SingularConfigurationError, UnitQuaternion
 from .solution import Trajectory
+from .state import project_state
 
 
 @dataclass
@@ -79,39 +80,6 @@ class _Integrators:
                  "linear_multistep_method": o.method},
             )
         return self._cache[n]
-
-
-def _project(eqs: SystemEquations, q: np.ndarray, u: np.ndarray, t: float) -> tuple[np.ndarray, np.ndarray, float, float]:
-    """Project ``(q, u)`` onto the constraint manifold; return the corrections' sizes."""
-    q = q.copy()
-    start = 0
-    for b in eqs.bodies:
-        n = b.q.numel()
-        if isinstance(b.rotation, UnitQuaternion):
-            q[start + 3 : start + n] /= np.linalg.norm(q[start + 3 : start + n])
-        start += n
-    dq_total = 0.0
-    if eqs.holonomic:
-        for _ in range(4):
-            _, _, phi, _, J = eqs.constraint_functions(q, u, t)
-            phi, J = np.asarray(phi).ravel(), np.asarray(J)
-            if np.abs(phi).max() < 1e-15:
-                break
-            dq = -np.linalg.lstsq(J, phi, rcond=None)[0]
-            q += dq
-            dq_total += np.linalg.norm(dq)
-    du_norm = 0.0
-    if eqs.nc:
-        G, _, _, r, _ = eqs.constraint_functions(q, u, t)
-        G, r = np.asarray(G), np.asarray(r).ravel()
-        M = np.asarray(eqs.mass_matrix_function(q))
-        # min |du|_M subject to G (u + du) + e = 0, through the KKT matrix (M may be
-        # singular for a thin rod; the KKT matrix is not).
-        K = np.block([[M, G.T], [G, np.zeros((eqs.nc, eqs.nc))]])
-        du = np.linalg.solve(K, np.concatenate([np.zeros(eqs.nu), -r]))[: eqs.nu]
-        u = u + du
-        du_norm = float(np.linalg.norm(du))
-    return q, u, dq_total, du_norm
 
 
 def _failure_message(eqs: SystemEquations, q: np.ndarray, t0: float, t1: float, exc: Exception) -> str:
@@ -202,7 +170,7 @@ def simulate(
             raise SimulationError(f"state became non-finite between t = {times[k]:g} and {times[k + n]:g}", partial=traj)
         for j in range(n - 1):
             record(k + j + 1, X[: eqs.nq, j], X[eqs.nq :, j], work + W[:, j])
-        q, u, dq, du = _project(eqs, X[: eqs.nq, -1], X[eqs.nq :, -1], times[k + n])
+        q, u, dq, du = project_state(eqs, X[: eqs.nq, -1], X[eqs.nq :, -1], times[k + n])
         work = work + W[:, -1]
         record(k + n, q, u, work, dq, du)
         k += n

@@ -13,6 +13,7 @@ import scipy.linalg
 
 from .equations import SystemEquations
 from .errors import InconsistentStateError, ModelError
+from .rotations import UnitQuaternion
 
 POSITION_TOL = 1e-9
 VELOCITY_TOL = 1e-9
@@ -111,3 +112,44 @@ def consistent_state(eqs: SystemEquations, coordinates: dict[str, float], rates:
         w, *_ = np.linalg.lstsq(R @ Z, -R @ u, rcond=None)
         u = u + Z @ w
     return q, u
+
+
+def project_positions(eqs: SystemEquations, q: np.ndarray, t: float, iterations: int = 8) -> np.ndarray:
+    """Nearest coordinates on ``phi(q, t) = 0`` (Gauss-Newton, minimum-norm steps), unit quaternions."""
+    q = np.array(q, dtype=float)
+    start = 0
+    for b in eqs.bodies:
+        n = b.q.numel()
+        if isinstance(b.rotation, UnitQuaternion):
+            q[start + 3 : start + n] /= np.linalg.norm(q[start + 3 : start + n])
+        start += n
+    if eqs.holonomic:
+        u0 = np.zeros(eqs.nu)
+        for _ in range(iterations):
+            _, _, phi, _, J = eqs.constraint_functions(q, u0, t)
+            phi, J = np.asarray(phi).ravel(), np.asarray(J)
+            if np.abs(phi).max() < 1e-15:
+                break
+            q -= np.linalg.lstsq(J, phi, rcond=None)[0]
+    return q
+
+
+def project_speeds(eqs: SystemEquations, q: np.ndarray, u: np.ndarray, t: float) -> np.ndarray:
+    """Speeds nearest to ``u`` in the kinetic-energy metric with ``G u + e = 0``.
+
+    Solved through the KKT matrix ``[M, G^T; G, 0]`` (``M`` may be singular for a thin rod).
+    """
+    if not eqs.nc:
+        return np.array(u, dtype=float)
+    G, _, _, r, _ = eqs.constraint_functions(q, u, t)
+    G, r = np.asarray(G), np.asarray(r).ravel()
+    M = np.asarray(eqs.mass_matrix_function(q))
+    K = np.block([[M, G.T], [G, np.zeros((eqs.nc, eqs.nc))]])
+    return np.asarray(u, float) + np.linalg.solve(K, np.concatenate([np.zeros(eqs.nu), -r]))[: eqs.nu]
+
+
+def project_state(eqs: SystemEquations, q: np.ndarray, u: np.ndarray, t: float) -> tuple[np.ndarray, np.ndarray, float, float]:
+    """Project ``(q, u)`` onto the constraint manifold; also return the sizes of the corrections."""
+    q_new = project_positions(eqs, q, t)
+    u_new = project_speeds(eqs, q_new, u, t)
+    return q_new, u_new, float(np.linalg.norm(q_new - q)), float(np.linalg.norm(u_new - u))

@@ -13,6 +13,8 @@ import numpy as np
 
 from .equations import SystemEquations
 from .errors import SimulationError
+from .ocp import OptimalControlProblem
+from .ocp_solution import OCPSolution, OCPSolveError
 from .results import prepare_output_folder, software_versions, write_csv, write_json, write_plots
 from .scenes import Scene
 from .simulate import SimulationOptions, simulate
@@ -104,3 +106,56 @@ def run_simulation(scene: Scene, scene_name: str, t_final: float | None = None, 
     if error is not None:
         raise error
     return traj, summary
+
+
+def _write_trajectory_results(out_path: Path, traj: Trajectory, summary: dict, inputs: dict[str, np.ndarray], plots: bool) -> None:
+    """trajectory.csv (states, then inputs), loads.csv, plots, and summary.json last."""
+    states = {**traj.state_columns(), **inputs}
+    loads = traj.loads()
+    write_csv(out_path / "trajectory.csv", traj.t, states)
+    write_csv(out_path / "loads.csv", traj.t, loads)
+    if plots:
+        summary["plots"] = write_plots(out_path, traj.t, states, loads, summary["joints"])
+    write_json(out_path / "summary.json", summary)
+
+
+def run_optimal_control(problem: OptimalControlProblem, scene_name: str, task: str, method,
+                        out: str | Path | None = None, ipopt_options: dict | None = None,
+                        plots: bool = True) -> tuple[OCPSolution, dict]:
+    """Solve ``problem`` with the transcription ``method``; write results if ``out`` is given.
+
+    A failed solve writes the last iterate with ``"success": false`` and re-raises.
+    """
+    out_path = prepare_output_folder(out) if out is not None else None
+    error: OCPSolveError | None = None
+    try:
+        sol = problem.solve(method, ipopt_options)
+    except OCPSolveError as exc:
+        error, sol = exc, exc.solution
+    pos, vel = sol.residuals()
+    eqs = problem.eqs
+    summary = {
+        "scene": scene_name,
+        "task": task,
+        "success": sol.success,
+        "status": sol.status,
+        "message": "" if error is None else str(error),
+        "parameters": problem.model.parameters,
+        "solver": {"nlp_solver": "ipopt", "transcription": method.label, "intervals": method.intervals,
+                   "degree": getattr(method, "degree", None), "ipopt_options": ipopt_options or {}},
+        "iterations": sol.iterations,
+        "t_final": sol.t_final,
+        "wall_time": {"build": sol.wall_time["transcription"] + sol.wall_time["solver_setup"], **sol.wall_time},
+        "objective": sol.objective,
+        "max_constraint_residual": {"position": pos, "velocity": vel},
+        "constraints": eqs.constraint_names,
+        "joints": [ch.prefix for ch in eqs.load_channels],
+        "inputs": list(problem.model.inputs),
+        "software": software_versions(),
+    }
+    if out_path is not None:
+        inputs = {n: sol.sample(n) for n in problem.model.inputs}
+        _write_trajectory_results(out_path, sol.trajectory, summary, inputs, plots)
+    if error is not None:
+        raise error
+    return sol, summary
