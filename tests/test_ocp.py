@@ -1,0 +1,145 @@
+"""Direct-collocation optimal control: accuracy orders, loads, residuals, failures."""
+from __future__ import annotations
+
+import json
+
+import numpy as np
+import pytest
+
+from ocp_constraints import SystemEquations, build_scene, consistent_state, simulate
+from ocp_constraints.cli import main
+from ocp_constraints.errors import ModelError
+from ocp_constraints.ocp import OptimalControlProblem
+from ocp_constraints.ocp_solution import OCPSolveError
+from ocp_constraints.scenes import build_task
+from ocp_constraints.transcription import HermiteSimpson, Radau, Trapezoidal, scheme_from_name
+
+
+@pytest.fixture(scope="module")
+def free_pendulum():
+    """The tilted pendulum's free motion over 1 s, from the core's forward simulation."""
+    scene = build_scene("pendulum")
+    eqs = SystemEquations(scene.model)
+    q0, u0 = consistent_state(eqs, scene.coordinates, scene.rates)
+    return scene, simulate(eqs, q0, u0, 1.0)
+
+
+def _free_motion_error(scene, reference, method) -> float:
+    # No controls and no objective: the OCP is the DAE's boundary-value problem.
+    ocp = OptimalControlProblem(scene.model, t_final=1.0)
+    ocp.initial({"rod.psi": scene.coordinates["rod.psi"], "rod.psi_dot": 0.0})
+    sol = ocp.solve(method)
+    assert max(sol.residuals()) <= 1e-8
+    return abs(sol.sample("rod.psi")[-1] - reference.sample("rod.psi")[-1])
+
+
+@pytest.mark.parametrize("coarse, fine, min_ratio, max_error", [
+    (Trapezoidal(10), Trapezoidal(20), 3.0, 2e-2),            # order 2: ratio 4
+    (HermiteSimpson(10), HermiteSimpson(20), 12.0, 1e-5),     # order 4: ratio 16
+    (Radau(10, degree=2), Radau(20, degree=2), 6.0, 2e-3),    # order 3: ratio 8
+    (Radau(5, degree=3), Radau(10, degree=3), 20.0, 1e-4),    # order 5: ratio 32
+])
+def test_free_motion_reproduces_the_forward_simulation_at_the_schemes_order(free_pendulum, coarse, fine, min_ratio, max_error):
+    scene, reference = free_pendulum
+    e_coarse = _free_motion_error(scene, reference, coarse)
+    e_fine = _free_motion_error(scene, reference, fine)
+    assert e_fine < max_error
+    assert e_coarse / e_fine >= min_ratio
+
+
+@pytest.fixture(scope="module")
+def swing_up():
+    return build_task("pendulum", "swing_up")[1]
+
+
+def test_swing_up_meets_bounds_boundary_conditions_and_keeps_constraints(swing_up):
+    sol = swing_up.solve(Radau(30, degree=3))
+    assert sol.success and sol.status == "Solve_Succeeded"
+    position, velocity = sol.residuals()
+    assert position <= 1e-8 and velocity <= 1e-8
+    torque = sol.sample("motor")
+    assert np.all(np.abs(torque) <= 20.0 + 1e-8)
+    psi = sol.sample("rod.psi")
+    assert psi[0] == pytest.approx(0.0, abs=1e-9) and psi[-1] == pytest.approx(np.pi, abs=1e-9)
+    assert sol.sample("rod.psi_dot")[-1] == pytest.approx(0.0, abs=1e-9)
+    # The objective is the integral of torque squared: check it by a separate quadrature
+    # of the interpolated torque.
+    t = np.linspace(0, 2, 4001)
+    tau = sol.interpolate("motor", t)
+    assert sol.objective == pytest.approx(np.trapezoid(tau**2, t), rel=1e-3)
+
+
+def test_swing_up_objective_agrees_across_transcriptions(swing_up):
+    radau = swing_up.solve(Radau(40, degree=3)).objective
+    hs = swing_up.solve(HermiteSimpson(40)).objective
+    assert radau == pytest.approx(hs, rel=1e-4)
+
+
+def test_ocp_loads_agree_with_pointwise_dynamics_and_the_gap_shrinks(swing_up):
+    gaps = []
+    for method in (Radau(15, degree=3), Radau(30, degree=3)):
+        sol = swing_up.solve(method)
+        eqs = swing_up.eqs
+        kkt = np.array([np.asarray(eqs.forward_dynamics(q, u, t, w, [0.0])[1]).ravel()
+                        for q, u, t, w in zip(sol.trajectory.q, sol.trajectory.u, sol.t, sol.inputs.T)])
+        gaps.append(np.abs(kkt - sol.lam.T).max() / np.abs(kkt).max())
+    assert gaps[1] < gaps[0] / 2
+    assert gaps[1] < 1e-2
+
+
+def test_second_solve_reuses_the_transcription(swing_up):
+    first = swing_up.solve(Trapezoidal(20))
+    second = swing_up.solve(Trapezoidal(20))
+    assert second.transcription is first.transcription
+    assert second.wall_time["solver_setup"] < 0.05
+    assert second.objective == pytest.approx(first.objective, rel=1e-9)
+
+
+def test_infeasible_swing_up_raises_with_ipopt_status_and_keeps_last_iterate(tmp_path):
+    _, problem = build_task("pendulum", "swing_up", {"max_torque": 0.1})
+    with pytest.raises(OCPSolveError) as info:
+        problem.solve(Trapezoidal(20), {"ipopt.max_iter": 200})
+    assert "status" in str(info.value)
+    assert info.value.solution.success is False
+    assert np.all(np.isfinite(info.value.solution.X))
+    code = main(["solve", "pendulum", "--scheme", "trapezoidal", "--intervals", "20", "--param", "max_torque=0.1",
+                 "--out", str(tmp_path), "--no-plots"])
+    assert code == 1
+    summary = json.loads((tmp_path / "summary.json").read_text())
+    assert summary["success"] is False and summary["status"] != "Solve_Succeeded"
+    assert (tmp_path / "trajectory.csv").exists() and (tmp_path / "loads.csv").exists()
+
+
+def test_solve_command_writes_results_with_objective(tmp_path):
+    assert main(["solve", "pendulum", "--intervals", "20", "--out", str(tmp_path)]) == 0
+    summary = json.loads((tmp_path / "summary.json").read_text())
+    assert summary["success"] is True and summary["task"] == "swing_up"
+    assert summary["objective"] > 0 and summary["solver"]["transcription"] == "radau3"
+    header = (tmp_path / "loads.csv").read_text().splitlines()[0].split(",")
+    assert {"hinge.v1.lambda", "hinge.w2.lambda", "hinge.F_x", "hinge.M_y", "hinge.power"} <= set(header)
+    assert "motor" in (tmp_path / "trajectory.csv").read_text().splitlines()[0].split(",")
+    assert (tmp_path / "loads_hinge.png").exists()
+
+
+def test_bad_transcription_and_problem_input_is_named():
+    with pytest.raises(ModelError, match="unknown transcription 'euler'"):
+        scheme_from_name("euler")
+    with pytest.raises(ModelError, match="degree must be a whole number from 1 to 9"):
+        Radau(10, degree=10)
+    with pytest.raises(ModelError, match="mesh must be increasing"):
+        Trapezoidal(mesh=(0.0, 0.6, 0.5, 1.0))
+    _, problem = build_task("pendulum", "swing_up")
+    with pytest.raises(ModelError, match="no quantity named 'rod.spin'"):
+        problem.bound("rod.spin", -1, 1)
+    with pytest.raises(ModelError, match="lower 2.0 exceeds upper 1.0"):
+        problem.bound("motor", 2.0, 1.0)
+    with pytest.raises(ModelError, match="no constraint 'hinge.v9'"):
+        problem.multiplier("hinge.v9")
+
+
+def test_user_mesh_is_used():
+    _, problem = build_task("pendulum", "swing_up")
+    mesh = tuple(np.sort(np.r_[0.0, 1.0, np.linspace(0, 1, 31)[1:-1] ** 1.3]))
+    sol = problem.solve(Radau(mesh=mesh, degree=2))
+    assert sol.success
+    assert np.allclose(sol.transcription.scheme.mesh_fractions * 2.0, sol.t[::2])
