@@ -27,6 +27,7 @@ import numpy as np
 from .errors import ModelError
 from .ocp import OptimalControlProblem
 from .ocp_solution import OCPSolution, OCPSolveError
+from .rotations import EulerSequence
 from .state import project_positions
 from .transcription import Scheme
 
@@ -168,7 +169,7 @@ class Transcription:
         return out
 
     # -- bounds and guess ---------------------------------------------------------------------
-    def _bounds(self) -> tuple[np.ndarray, np.ndarray]:
+    def _bounds(self, x0: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         lay, pr, e = self.layout, self.problem, self.eqs
         lo = [np.full(n, -np.inf) for n in lay.sizes()]
         hi = [np.full(n, np.inf) for n in lay.sizes()]
@@ -185,7 +186,28 @@ class Transcription:
                 raise ModelError(f"bound on '{name}': only coordinates, speeds and inputs take bounds; use subject_to for rates")
         if lay.free_time:
             lo[5][:], hi[5][:] = pr.t_final_bounds
+        self._keep_away_from_euler_singularities(lo[0], hi[0], names_x, x0[: lay.nx])
         return np.concatenate(lo), np.concatenate(hi)
+
+    def _keep_away_from_euler_singularities(self, lo, hi, names_x, x_start) -> None:
+        """Bound each Euler body's second angle inside the regular band of its start value.
+
+        Where the user set no bound: the dual Euler basis (and so the dynamics) is
+        singular at theta = k pi (proper sequences) or pi/2 + k pi (Tait-Bryan), and an
+        iterate that crosses there makes IPOPT wander.
+        """
+        lay = self.layout
+        for b in self.eqs.bodies:
+            rot = b.rotation
+            name = f"{b.name}.theta"
+            if not isinstance(rot, EulerSequence) or name in self.problem.bounds:
+                continue
+            r = names_x.index(name)
+            offset = 0.0 if rot.is_proper else np.pi / 2
+            k = np.floor((x_start[r] + offset) / np.pi)
+            margin = max(rot.singularity_tolerance, 1e-3)
+            lo[r :: lay.nx] = k * np.pi - offset + margin
+            hi[r :: lay.nx] = (k + 1) * np.pi - offset - margin
 
     def _boundary_values(self) -> tuple[np.ndarray, np.ndarray]:
         lbg, ubg = self._lbg.copy(), self._ubg.copy()
@@ -208,8 +230,6 @@ class Transcription:
                 a = pr.initial_values.get(n, pr.final_values.get(n, 0.0))
                 b = pr.final_values.get(n, a)
                 X[r] = a + (b - a) * self.fractions
-        for i in range(lay.n_points):
-            X[: e.nq, i] = project_positions(e, X[: e.nq, i], t[i])
         W = np.zeros((lay.n_in, lay.n_points))
         for r, n in enumerate(pr.model.inputs):
             if n in pr.guess:
@@ -217,6 +237,8 @@ class Transcription:
             else:
                 a = pr.initial_values.get(n, 0.0)
                 W[r] = a + (pr.final_values.get(n, a) - a) * self.fractions
+        for i in range(lay.n_points):
+            X[: e.nq, i] = project_positions(e, X[: e.nq, i], t[i], inputs=W[:, i])
         D = np.gradient(X, t, axis=1) if lay.n_points > 1 else np.zeros_like(X)
         parts = [X.ravel(order="F"), D.ravel(order="F"), np.zeros(lay.nc * lay.n_points), W.ravel(order="F"),
                  np.zeros(lay.nh * (lay.n_points - 1)), np.array([T] if lay.free_time else [])]
@@ -230,9 +252,9 @@ class Transcription:
             self._solver = ca.nlpsol("ocp", "ipopt", self.nlp, opts)
             self._solver_options = opts
         setup = time.perf_counter() - started
-        lbx, ubx = self._bounds()
-        lbg, ubg = self._boundary_values()
         x0 = self.initial_guess() if warm_start is None else np.asarray(warm_start.decision_vector, float)
+        lbx, ubx = self._bounds(x0)
+        lbg, ubg = self._boundary_values()
         started = time.perf_counter()
         res = self._solver(x0=x0, lbx=lbx, ubx=ubx, lbg=lbg, ubg=ubg)
         solve_time = time.perf_counter() - started

@@ -126,11 +126,11 @@ class SystemEquations:
 
     @cached_property
     def constraint_functions(self) -> ca.Function:
-        """``(q, u, t) -> (G, e, phi, velocity residual G u + e)``."""
+        """``(q, u, t, inputs) -> (G, e, phi, velocity residual G u + e, d(phi)/dq)``."""
         return ca.Function(
-            "constraint_functions", [self.q, self.u, self.t],
+            "constraint_functions", [self.q, self.u, self.t, self.inputs],
             [self.G, self.e, self.phi, self.G @ self.u + self.e, ca.jacobian(self.phi, self.q)],
-            ["q", "u", "t"], ["G", "e", "phi", "pi", "phi_q"],
+            ["q", "u", "t", "inputs"], ["G", "e", "phi", "pi", "phi_q"],
         )
 
     @cached_property
@@ -138,7 +138,8 @@ class SystemEquations:
         """``(q, u, t) -> d(phi)/dt - pi`` for the holonomic constraints (zero on the manifold)."""
         pi = (self.G @ self.u + self.e)[self.holonomic] if self.holonomic else ca.SX(0, 1)
         rate = ca.jtimes(self.phi, self.q, self.qdot) + ca.jacobian(self.phi, self.t)
-        return ca.Function("position_form_mismatch", [self.q, self.u, self.t], [rate - pi], ["q", "u", "t"], ["mismatch"])
+        return ca.Function("position_form_mismatch", [self.q, self.u, self.t, self.inputs], [rate - pi],
+                           ["q", "u", "t", "inputs"], ["mismatch"])
 
     @cached_property
     def mass_matrix_function(self) -> ca.Function:
@@ -223,7 +224,7 @@ class SystemEquations:
             p = ca.SX.sym("p", coordinates.size1_in(0))
             qv = np.asarray(coordinates(q), dtype=float).ravel()
             dq_dp = np.asarray(ca.Function("dq_dp", [p], [ca.jacobian(coordinates(p), p)])(q))
-        G = np.asarray(self.constraint_functions(qv, np.zeros(self.nu), t)[0])
+        G = np.asarray(self.constraint_functions(qv, np.zeros(self.nu), t, np.zeros(self.inputs.numel()))[0])
         A = G @ np.asarray(self.speeds_from_rates(qv)) @ dq_dp
         return np.asarray(lam, dtype=float).reshape(-1, 1) * A
 
@@ -236,7 +237,7 @@ class SystemEquations:
         """
         if not self.nc:
             return
-        G = np.asarray(self.constraint_functions(q, np.zeros(self.nu), t)[0])
+        G = np.asarray(self.constraint_functions(q, np.zeros(self.nu), t, np.zeros(self.inputs.numel()))[0])
         scale = max(1.0, np.abs(G).max())
         kept: list[int] = []
         problems = []

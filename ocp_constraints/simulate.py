@@ -170,7 +170,7 @@ def simulate(
             raise SimulationError(f"state became non-finite between t = {times[k]:g} and {times[k + n]:g}", partial=traj)
         for j in range(n - 1):
             record(k + j + 1, X[: eqs.nq, j], X[eqs.nq :, j], work + W[:, j])
-        q, u, dq, du = project_state(eqs, X[: eqs.nq, -1], X[eqs.nq :, -1], times[k + n])
+        q, u, dq, du = project_state(eqs, X[: eqs.nq, -1], X[eqs.nq :, -1], times[k + n], input_at(times[k + n]))
         work = work + W[:, -1]
         record(k + n, q, u, work, dq, du)
         k += n

@@ -118,8 +118,9 @@ class Trajectory:
         """Largest position-level ``|phi|`` and velocity-level ``|G u + e|`` residuals."""
         f = self.eqs.constraint_functions
         pos = vel = 0.0
-        for q, u, t in zip(self.q, self.u, self.t):
-            _, _, phi, pi, _ = f(q, u, t)
+        inputs = self._array("inputs").reshape(len(self), self.eqs.inputs.numel())
+        for q, u, t, w in zip(self.q, self.u, self.t, inputs):
+            _, _, phi, pi, _ = f(q, u, t, w)
             pos = max(pos, float(np.abs(np.asarray(phi)).max(initial=0.0)))
             vel = max(vel, float(np.abs(np.asarray(pi)).max(initial=0.0)))
         return pos, vel

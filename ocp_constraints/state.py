@@ -46,14 +46,14 @@ def rate_rows(eqs: SystemEquations, q: np.ndarray) -> tuple[list[str], np.ndarra
     return names, np.vstack([N, np.eye(eqs.nu)])
 
 
-def _check_position_forms(eqs: SystemEquations, q: np.ndarray, t0: float) -> None:
+def _check_position_forms(eqs: SystemEquations, q: np.ndarray, t0: float, inputs: np.ndarray) -> None:
     """Each position form ``phi`` must have ``d(phi)/dt = pi`` (checked at ``q`` for random speeds)."""
     if not eqs.holonomic:
         return
     rng = np.random.default_rng(0)
     for _ in range(3):
         u = rng.standard_normal(eqs.nu)
-        mismatch = np.asarray(eqs.position_form_mismatch(q, u, t0)).ravel()
+        mismatch = np.asarray(eqs.position_form_mismatch(q, u, t0, inputs)).ravel()
         for k, i in enumerate(eqs.holonomic):
             if abs(mismatch[k]) > 1e-7 * (1 + np.abs(u).max()):
                 raise ModelError(
@@ -63,18 +63,20 @@ def _check_position_forms(eqs: SystemEquations, q: np.ndarray, t0: float) -> Non
                 )
 
 
-def consistent_state(eqs: SystemEquations, coordinates: dict[str, float], rates: dict[str, float], t0: float = 0.0) -> tuple[np.ndarray, np.ndarray]:
-    """Return ``(q0, u0)`` satisfying every constraint at ``t0``.
+def consistent_state(eqs: SystemEquations, coordinates: dict[str, float], rates: dict[str, float], t0: float = 0.0,
+                     inputs=None) -> tuple[np.ndarray, np.ndarray]:
+    """Return ``(q0, u0)`` satisfying every constraint at ``t0`` (with ``inputs`` at ``t0``, default zero).
 
     Raises :class:`InconsistentStateError` naming the constraint that the coordinates
     violate, or the given rates that contradict the constraints, and
     :class:`RedundantConstraintsError` if constraints repeat each other.
     """
     q = coordinate_vector(eqs, coordinates)
+    inputs = np.zeros(eqs.inputs.numel()) if inputs is None else np.asarray(inputs, float).reshape(eqs.inputs.numel())
     for b in eqs.bodies:
         sl = eqs.model.coordinate_names.index(b.coordinate_names[0])
         b.check_singularity(q[sl : sl + b.q.numel()], f"at t = {t0:g}")
-    G, e, phi, _, _ = (np.asarray(x) for x in eqs.constraint_functions(q, np.zeros(eqs.nu), t0))
+    G, e, phi, _, _ = (np.asarray(x) for x in eqs.constraint_functions(q, np.zeros(eqs.nu), t0, inputs))
     phi = phi.ravel()
     for k, i in enumerate(eqs.holonomic):
         if abs(phi[k]) > POSITION_TOL:
@@ -83,7 +85,7 @@ def consistent_state(eqs: SystemEquations, coordinates: dict[str, float], rates:
                 f"level: residual {phi[k]:.3g} (tolerance {POSITION_TOL:g}). Fix the initial "
                 "coordinates (e.g. the height of a body in contact)."
             )
-    _check_position_forms(eqs, q, t0)
+    _check_position_forms(eqs, q, t0, inputs)
     eqs.check_redundancy(q, t0)
     names, S = rate_rows(eqs, q)
     unknown = sorted(set(rates) - set(names))
@@ -114,7 +116,7 @@ def consistent_state(eqs: SystemEquations, coordinates: dict[str, float], rates:
     return q, u
 
 
-def project_positions(eqs: SystemEquations, q: np.ndarray, t: float, iterations: int = 8) -> np.ndarray:
+def project_positions(eqs: SystemEquations, q: np.ndarray, t: float, iterations: int = 8, inputs=None) -> np.ndarray:
     """Nearest coordinates on ``phi(q, t) = 0`` (Gauss-Newton, minimum-norm steps), unit quaternions."""
     q = np.array(q, dtype=float)
     start = 0
@@ -125,8 +127,9 @@ def project_positions(eqs: SystemEquations, q: np.ndarray, t: float, iterations:
         start += n
     if eqs.holonomic:
         u0 = np.zeros(eqs.nu)
+        w = np.zeros(eqs.inputs.numel()) if inputs is None else inputs
         for _ in range(iterations):
-            _, _, phi, _, J = eqs.constraint_functions(q, u0, t)
+            _, _, phi, _, J = eqs.constraint_functions(q, u0, t, w)
             phi, J = np.asarray(phi).ravel(), np.asarray(J)
             if np.abs(phi).max() < 1e-15:
                 break
@@ -134,22 +137,23 @@ def project_positions(eqs: SystemEquations, q: np.ndarray, t: float, iterations:
     return q
 
 
-def project_speeds(eqs: SystemEquations, q: np.ndarray, u: np.ndarray, t: float) -> np.ndarray:
+def project_speeds(eqs: SystemEquations, q: np.ndarray, u: np.ndarray, t: float, inputs=None) -> np.ndarray:
     """Speeds nearest to ``u`` in the kinetic-energy metric with ``G u + e = 0``.
 
     Solved through the KKT matrix ``[M, G^T; G, 0]`` (``M`` may be singular for a thin rod).
     """
     if not eqs.nc:
         return np.array(u, dtype=float)
-    G, _, _, r, _ = eqs.constraint_functions(q, u, t)
+    w = np.zeros(eqs.inputs.numel()) if inputs is None else inputs
+    G, _, _, r, _ = eqs.constraint_functions(q, u, t, w)
     G, r = np.asarray(G), np.asarray(r).ravel()
     M = np.asarray(eqs.mass_matrix_function(q))
     K = np.block([[M, G.T], [G, np.zeros((eqs.nc, eqs.nc))]])
     return np.asarray(u, float) + np.linalg.solve(K, np.concatenate([np.zeros(eqs.nu), -r]))[: eqs.nu]
 
 
-def project_state(eqs: SystemEquations, q: np.ndarray, u: np.ndarray, t: float) -> tuple[np.ndarray, np.ndarray, float, float]:
+def project_state(eqs: SystemEquations, q: np.ndarray, u: np.ndarray, t: float, inputs=None) -> tuple[np.ndarray, np.ndarray, float, float]:
     """Project ``(q, u)`` onto the constraint manifold; also return the sizes of the corrections."""
-    q_new = project_positions(eqs, q, t)
-    u_new = project_speeds(eqs, q_new, u, t)
+    q_new = project_positions(eqs, q, t, inputs=inputs)
+    u_new = project_speeds(eqs, q_new, u, t, inputs)
     return q_new, u_new, float(np.linalg.norm(q_new - q)), float(np.linalg.norm(u_new - u))

@@ -21,14 +21,18 @@ import math
 
 import numpy as np
 
+import casadi as ca
+
 from ocp_constraints import joints
 from ocp_constraints.model import Model
+from ocp_constraints.ocp import OptimalControlProblem
 from ocp_constraints.rotations import EulerSequence, quaternion_from_rotation
 from ocp_constraints.scenes import Scene
 
 DESCRIPTION = "two-body chain on ball-and-socket joints (sec. 6): equal and opposite joint forces"
 
-DEFAULTS = {"m1": 1.0, "m2": 0.8, "link_length": 1.0, "gravity": 9.81, "t_final": 10.0, "quaternion": 0.0}
+DEFAULTS = {"m1": 1.0, "m2": 0.8, "link_length": 1.0, "gravity": 9.81, "t_final": 10.0, "quaternion": 0.0,
+            "task_duration": 2.0}
 
 J1 = [[0.090, 0.002, 0.004], [0.002, 0.010, 0.003], [0.004, 0.003, 0.085]]
 J2 = [[0.045, -0.002, 0.003], [-0.002, 0.008, 0.001], [0.003, 0.001, 0.042]]
@@ -38,7 +42,7 @@ ANGLES1, RATES1 = (0.0, math.pi / 2 + 0.4, 0.2), (0.8, 0.0, 0.5)
 ANGLES2, RATES2 = (0.5, math.pi / 2 - 0.3, -0.3), (-0.5, 1.0, 0.0)
 
 
-def build(p: dict[str, float]) -> Scene:
+def _model(p: dict[str, float], actuated: bool) -> Model:
     c1 = np.array([0.0, -p["link_length"], 0.0])
     model = Model("ball_socket", gravity=(0.0, 0.0, -p["gravity"]), parameters=p)
     rotation = "quaternion" if p["quaternion"] else "313"
@@ -49,6 +53,34 @@ def build(p: dict[str, float]) -> Scene:
     C2 = b2.point("C", -R2)
     joints.ball_and_socket(model, "socket_O", O)
     joints.ball_and_socket(model, "socket_C", C1, C2)
+    if actuated:  # torques (fixed basis) at the two joints; the elbow's reacts on body 1
+        shoulder = ca.vertcat(*[model.add_input(f"shoulder_{a}") for a in "xyz"])
+        elbow = ca.vertcat(*[model.add_input(f"elbow_{a}") for a in "xyz"])
+        model.add_torque("shoulder", b1, shoulder)
+        model.add_torque("elbow", b2, elbow, reaction_body=b1)
+    return model
+
+
+def reach(p: dict[str, float]) -> OptimalControlProblem:
+    """Move the chain from rest at the scene's initial angles to rest at a reaching pose
+    (both links raised) in ``task_duration``, minimum int |tau|^2 dt over the six joint torques."""
+    ocp = OptimalControlProblem(_model(p, actuated=True), t_final=p["task_duration"])
+    start = {"body1": ANGLES1, "body2": ANGLES2}
+    goal = {"body1": (0.6, math.pi / 2 - 0.3, 0.0), "body2": (0.9, math.pi / 2 - 0.6, 0.2)}
+    for values, target in ((start, ocp.initial), (goal, ocp.final)):
+        for body, angles in values.items():
+            target({f"{body}.{c}": v for c, v in zip(("psi", "theta", "phi"), angles)})
+            target({f"{body}.{c}_dot": 0.0 for c in ("psi", "theta", "phi")})
+    ocp.minimize_effort()
+    return ocp
+
+
+TASKS = {"reach": reach}
+
+
+def build(p: dict[str, float]) -> Scene:
+    c1 = np.array([0.0, -p["link_length"], 0.0])
+    model = _model(p, actuated=False)
     seq = EulerSequence("313")
     Q1, Q2 = (np.asarray(seq.rotation(a)) for a in (ANGLES1, ANGLES2))
     x1 = Q1 @ R1

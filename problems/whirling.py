@@ -22,6 +22,7 @@ import numpy as np
 
 from ocp_constraints import joints
 from ocp_constraints.model import Model
+from ocp_constraints.ocp import OptimalControlProblem
 from ocp_constraints.rotations import EulerSequence
 from ocp_constraints.scenes import Scene
 
@@ -37,21 +38,54 @@ DEFAULTS = {
     "theta_dot0": 0.0,
     "gravity": 9.81,
     "t_final": 10.0,
+    "task_duration": 4.0,
+    "task_theta_change": -0.4,
 }
 
 
-def build(p: dict[str, float]) -> Scene:
+def _model(p: dict[str, float], speed_is_input: bool) -> Model:
     model = Model("whirling", gravity=(0.0, 0.0, -p["gravity"]), parameters=p)
     J = [[p["J11"], p["J12"], p["J13"]], [p["J12"], p["J22"], p["J23"]], [p["J13"], p["J23"], p["J33"]]]
     body = model.add_body("body", p["mass"], J, rotation="313")
-    com = np.array([p["com_x"], p["com_y"], p["com_z"]])
-    A = body.point("A", -com)
-    t = model.t
-    Omega = p["omega"] + p["omega_amplitude"] * ca.sin(t)
+    A = body.point("A", -np.array([p["com_x"], p["com_y"], p["com_z"]]))
     joints.ball_and_socket(model, "shaft", A)
-    joints.driven_axis(model, "shaft", body, Omega, index=1,
-                       rate_integral=p["omega"] * t + p["omega_amplitude"] * (1 - ca.cos(t)), initial_angle=0.0)
+    t = model.t
+    if speed_is_input:  # Omega(t) chosen by an optimizer: no position form for the drive
+        joints.driven_axis(model, "shaft", body, model.add_input("Omega"), index=1)
+    else:
+        Omega = p["omega"] + p["omega_amplitude"] * ca.sin(t)
+        joints.driven_axis(model, "shaft", body, Omega, index=1,
+                           rate_integral=p["omega"] * t + p["omega_amplitude"] * (1 - ca.cos(t)), initial_angle=0.0)
     joints.fixed_angle(model, "shaft", body, index=3, value=0.0)
+    return model
+
+
+def hanging_theta(p: dict[str, float]) -> float:
+    """The 3-1-3 angle theta at which the body hangs at rest (center of mass lowest)."""
+    # With psi = phi = 0 the center of mass is at height com_y sin(theta) + com_z cos(theta),
+    # = r cos(theta - beta) with beta = atan2(com_y, com_z): lowest at theta = beta + pi.
+    return math.atan2(p["com_y"], p["com_z"]) + math.pi
+
+
+def spin_up(p: dict[str, float]) -> OptimalControlProblem:
+    """Choose the shaft speed Omega(t), from rest and back to rest after ``task_duration``,
+    that takes the body from hanging (theta_0) to theta_1 = theta_0 + task_theta_change at
+    rest, with the least motor-torque effort int lambda_4^2 dt."""
+    model = _model(p, speed_is_input=True)
+    theta0 = hanging_theta(p)
+    ocp = OptimalControlProblem(model, t_final=p["task_duration"])
+    ocp.initial({"body.psi": 0.0, "body.theta": theta0, "body.theta_dot": 0.0, "Omega": 0.0})
+    ocp.final({"body.theta": theta0 + p["task_theta_change"], "body.theta_dot": 0.0, "Omega": 0.0})
+    ocp.minimize_load_effort(["shaft.drive"])
+    return ocp
+
+
+TASKS = {"spin_up": spin_up}
+
+
+def build(p: dict[str, float]) -> Scene:
+    model = _model(p, speed_is_input=False)
+    com = np.array([p["com_x"], p["com_y"], p["com_z"]])
     angles = [0.0, p["theta0"], 0.0]
     Q0 = np.asarray(EulerSequence("313").rotation(angles))
     xbar = Q0 @ com  # X_A at the origin: xbar = -Q r_A

@@ -301,7 +301,7 @@ def test_assembled_constraints_equal_the_independently_written_ones(compiled_cas
     rng = np.random.default_rng(list(CASES).index(name))
     for _ in range(20):
         q, u, t = c.case.random_q(rng), rng.normal(size=c.eqs.nu) * 3, rng.uniform(0, 10)
-        lib = np.asarray(c.eqs.constraint_functions(q, u, t)[3]).ravel()
+        lib = np.asarray(c.eqs.constraint_functions(q, u, t, [])[3]).ravel()
         ind = np.asarray(c.indep(q, u, t)[0]).ravel()
         assert np.abs(lib - ind).max() <= 1e-13 * max(1, np.abs(u).max())
 
@@ -431,7 +431,7 @@ def test_sliding_disk_constraint_written_at_center_of_mass_is_equipollent(indep_
         q, t = _random_disk_state(rng, R), rng.uniform(0, 5)
         u = rng.normal(size=6) * 2
         # Put u on the manifold with the independent constraint z' = R cos(theta) theta'.
-        G = np.asarray(eqs2.constraint_functions(q, u, t)[0])
+        G = np.asarray(eqs2.constraint_functions(q, u, t, [])[0])
         u = u - np.linalg.pinv(G) @ (G @ u)
         ud1, lam1 = (np.asarray(x).ravel() for x in eqs1.forward_dynamics(q, u, t, [], []))
         ud2, lam2 = (np.asarray(x).ravel() for x in eqs2.forward_dynamics(q, u, t, [], []))

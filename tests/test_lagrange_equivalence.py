@@ -177,7 +177,7 @@ def test_sliding_disk_newton_euler_equals_lagrange_at_random_states(indep_kinema
     for q, qd, t in _random_disk_states(p, 25, seed=1):
         u = lag.speeds(q, qd)
         # The library's constraint agrees with z' - R cos(theta) theta' = 0 at this state.
-        assert abs(float(eqs.constraint_functions(q, u, t)[3])) <= 1e-14 * max(1, np.abs(u).max())
+        assert abs(float(eqs.constraint_functions(q, u, t, [])[3])) <= 1e-14 * max(1, np.abs(u).max())
         errs.append(_compare_at(eqs, lag, q, u, t))
     assert np.max(errs) <= TOL
 
@@ -203,7 +203,7 @@ def test_whirling_newton_euler_equals_lagrange_at_random_states(indep_kinematics
     errs = []
     for q, qd, t in _random_whirling_states(indep_kinematics, p, 25, seed=2):
         u = lag.speeds(q, qd)
-        _, _, phi, pi, _ = eqs.constraint_functions(q, u, t)
+        _, _, phi, pi, _ = eqs.constraint_functions(q, u, t, [])
         assert np.abs(np.asarray(pi)).max() <= 1e-13 * max(1, np.abs(u).max())
         errs.append(_compare_at(eqs, lag, q, u, t))
     assert np.max(errs) <= TOL
