@@ -4,6 +4,9 @@
     ocp-constraints simulate SCENE [--t-final T] [--dt DT] [--out DIR] [--param name=value ...] [--no-plots]
     ocp-constraints solve SCENE [--task NAME] [--scheme trapezoidal|hermite-simpson|radau] [--degree D]
                           [--intervals N] [--out DIR] [--param name=value ...] [--no-plots]
+    ocp-constraints export-c SCENE --out DIR [--param name=value ...] [--no-verify]
+    ocp-constraints bench-export [SCENE ...] [--runs N] [--markdown [PATH]]
+    ocp-constraints gait --model MODEL.osim --motion IK --grf GRF [--side right] [--start T0 --end T1] --out DIR
 
 SCENE is a built-in scene name (see ``list``) or the path of a scene file. Errors in
 the input are reported in one line naming the culprit, with exit status 2; a
@@ -20,7 +23,7 @@ from .errors import OcpConstraintsError, SimulationError
 def _parser() -> argparse.ArgumentParser:
     p = argparse.ArgumentParser(prog="ocp-constraints", description=__doc__.split("\n\n")[0])
     sub = p.add_subparsers(dest="command", required=True)
-    sub.add_parser("list", help="list the built-in scenes")
+    sub.add_parser("list", help="list the built-in scenes").set_defaults(handler=lambda args: _list())
     s = sub.add_parser("simulate", help="forward simulation with constraint loads")
     s.add_argument("scene", help="built-in scene name or path of a scene file")
     s.add_argument("--t-final", type=float, default=None, help="end time [s] (default: the scene's)")
@@ -28,6 +31,7 @@ def _parser() -> argparse.ArgumentParser:
     s.add_argument("--out", default=None, help="folder for summary.json, trajectory.csv, loads.csv and plots")
     s.add_argument("--param", action="append", default=[], metavar="NAME=VALUE", help="override a scene parameter")
     s.add_argument("--no-plots", action="store_true", help="write no PNG plots")
+    s.set_defaults(handler=_simulate)
     o = sub.add_parser("solve", help="optimal control by direct collocation and IPOPT")
     o.add_argument("scene", help="built-in scene name or path of a scene file")
     o.add_argument("--task", default=None, help="task of the scene (default: its first)")
@@ -37,6 +41,12 @@ def _parser() -> argparse.ArgumentParser:
     o.add_argument("--out", default=None, help="folder for summary.json, trajectory.csv, loads.csv and plots")
     o.add_argument("--param", action="append", default=[], metavar="NAME=VALUE", help="override a scene parameter")
     o.add_argument("--no-plots", action="store_true", help="write no PNG plots")
+    o.set_defaults(handler=_solve)
+    from .export import add_export_parser
+    from .gait import add_gait_parser
+
+    add_export_parser(sub)
+    add_gait_parser(sub)
     return p
 
 
@@ -104,11 +114,7 @@ def _solve(args) -> int:
 def main(argv: list[str] | None = None) -> int:
     args = _parser().parse_args(argv)
     try:
-        if args.command == "list":
-            return _list()
-        if args.command == "solve":
-            return _solve(args)
-        return _simulate(args)
+        return args.handler(args)
     except OcpConstraintsError as exc:
         print(f"error: {exc}", file=sys.stderr)
         return 2
