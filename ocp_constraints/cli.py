@@ -41,6 +41,7 @@ def _parser() -> argparse.ArgumentParser:
     o.add_argument("--out", default=None, help="folder for summary.json, trajectory.csv, loads.csv and plots")
     o.add_argument("--param", action="append", default=[], metavar="NAME=VALUE", help="override a scene parameter")
     o.add_argument("--no-plots", action="store_true", help="write no PNG plots")
+    o.add_argument("--reintegrate", action="store_true", help="forward-simulate the optimal inputs and report the deviation")
     o.set_defaults(handler=_solve)
     from .export import add_export_parser
     from .gait import add_gait_parser
@@ -94,7 +95,8 @@ def _solve(args) -> int:
     task, problem = build_task(args.scene, args.task, parse_param_arguments(args.param))
     method = scheme_from_name(args.scheme, args.intervals, args.degree)
     try:
-        sol, summary = run_optimal_control(problem, args.scene, task, method, args.out, plots=not args.no_plots)
+        sol, summary = run_optimal_control(problem, args.scene, task, method, args.out, plots=not args.no_plots,
+                                           reintegrate=args.reintegrate)
     except OCPSolveError as exc:
         print(f"error: {exc}", file=sys.stderr)
         if args.out:
@@ -106,6 +108,11 @@ def _solve(args) -> int:
         f"build {summary['wall_time']['build']:.2f} s, solve {summary['wall_time']['solve']:.3f} s; "
         f"max residuals position {res['position']:.1e}, velocity {res['velocity']:.1e}"
     )
+    for joint, work in summary["joint_work"].items():
+        if abs(work) > 1e-9:
+            print(f"  work done by joint '{joint}': {work:.6g} J")
+    if "reintegration" in summary:
+        print(f"  re-integration of the optimal inputs: max state deviation {summary['reintegration']['max_state_deviation']:.2e}")
     if args.out:
         print(f"results in {args.out}")
     return 0

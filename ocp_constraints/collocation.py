@@ -1,18 +1,19 @@
 """Direct collocation of an :class:`OptimalControlProblem` into an IPOPT NLP.
 
 Variables at every collocation point ``i`` (unique times over the mesh): states
-``x_i = (q_i, u_i)``, state derivatives ``D_i``, multipliers ``lambda_i``, inputs
+``x_i = (q_i, u_i)``, accelerations ``a_i = u'_i``, multipliers ``lambda_i``, inputs
 ``w_i``, and (except at ``t_0``) the kinematic slack ``gamma_i`` of Posa et al. (2016).
-Constraints at every point: the implicit dynamics
+The state derivative at a point is ``D = (N(q) u + phi_q^T gamma, a)`` (the coordinate
+rates are expressions, not variables); constraints at every point: the implicit dynamics
 
-    D_q = N(q) u + phi_q^T gamma,      M(q) D_u = f(q, u, t, w) + G^T lambda,
+    M(q) a = f(q, u, t, w) + G^T lambda,
 
 the velocity-level constraints ``G u + e = 0`` and the position-level forms
 ``phi(q, t) = 0``. Why this choice: imposing both ``phi = 0`` and ``G u + e = 0`` makes
 the solution drift-free at every point (the contract of DESIGN.md); the slack
 ``gamma`` absorbs the discretization's mismatch between the two (it vanishes as the
 mesh is refined), so the NLP stays consistent, as in Moco. At ``t_0`` the
-acceleration-level constraint ``G D_u + gamma_acc = 0`` determines ``lambda_0``. The
+acceleration-level constraint ``G a + gamma_acc = 0`` determines ``lambda_0``. The
 scheme's defects tie ``x`` and ``D`` (see :mod:`ocp_constraints.transcription`).
 IPOPT is called through ``casadi.nlpsol`` with exact Hessians of an SX graph.
 """
@@ -41,6 +42,7 @@ class Layout:
 
     n_points: int
     nx: int
+    nu: int
     nc: int
     nh: int
     n_in: int
@@ -48,7 +50,7 @@ class Layout:
 
     def sizes(self) -> list[int]:
         P = self.n_points
-        return [self.nx * P, self.nx * P, self.nc * P, self.n_in * P, self.nh * (P - 1), int(self.free_time)]
+        return [self.nx * P, self.nu * P, self.nc * P, self.n_in * P, self.nh * (P - 1), int(self.free_time)]
 
     def split(self, w):
         out, start = [], 0
@@ -57,11 +59,11 @@ class Layout:
             start += n
         P = self.n_points
         X = ca.reshape(out[0], self.nx, P)
-        D = ca.reshape(out[1], self.nx, P)
+        A = ca.reshape(out[1], self.nu, P)
         L = ca.reshape(out[2], self.nc, P)
         W = ca.reshape(out[3], self.n_in, P)
         Gm = ca.reshape(out[4], self.nh, P - 1)
-        return X, D, L, W, Gm, out[5]
+        return X, A, L, W, Gm, out[5]
 
 
 class Transcription:
@@ -77,7 +79,7 @@ class Transcription:
         p = len(scheme.tau)
         N = scheme.intervals
         P = N * (p - 1) + 1
-        self.layout = Layout(P, nx, e.nc, e.phi.numel(), n_in, problem.t_final_bounds is not None)
+        self.layout = Layout(P, nx, e.nu, e.nc, e.phi.numel(), n_in, problem.t_final_bounds is not None)
         mesh = scheme.mesh_fractions
         # Normalized time of every point, and its quadrature weight (times the horizon).
         frac = np.zeros(P)
@@ -90,7 +92,7 @@ class Transcription:
         self.fractions, self.quadrature = frac, quad
 
         w = ca.SX.sym("w", sum(self.layout.sizes()))
-        X, D, L, W, Gm, Tvar = self.layout.split(w)
+        X, A, L, W, Gm, Tvar = self.layout.split(w)
         T = Tvar[0] if self.layout.free_time else problem.t_final
         point = self._point_functions()
         g, lbg, ubg = [], [], []
@@ -104,10 +106,12 @@ class Transcription:
             return first
 
         cost = 0
+        D = []  # state derivatives at the points
         for i in range(P):
             t_i = frac[i] * T
             gam = Gm[:, i - 1] if i > 0 else ca.SX.zeros(self.layout.nh)
-            dyn, vel, pos = point["residuals"](X[:, i], D[:, i], L[:, i], gam, W[:, i], t_i)
+            D.append(ca.vertcat(point["kinematics"](X[:, i], gam, t_i), A[:, i]))
+            dyn, vel, pos = point["residuals"](X[:, i], A[:, i], L[:, i], W[:, i], t_i)
             add(dyn)
             add(vel)
             add(pos)
@@ -117,13 +121,13 @@ class Transcription:
                 lo = [pc.lower for pc in problem.path_constraints]
                 hi = [pc.upper for pc in problem.path_constraints]
                 add(point["path"](X[:, i], L[:, i], W[:, i], t_i), lo, hi)
-        add(point["acceleration"](X[:, 0], D[:, 0], W[:, 0], 0 * T))
+        add(point["acceleration"](X[:, 0], D[0], W[:, 0], 0 * T))
         if not scheme.first_point_has_controls and n_in and not ca.depends_on(ca.vertcat(ca.vec(e.G), e.e), e.inputs):
             add(W[:, 0] - W[:, 1])  # Radau never uses inputs at t0: hold the first interval's
         for k in range(N):
             idx = [k * (p - 1) + j for j in range(p)]
             h = (mesh[k + 1] - mesh[k]) * T
-            for defect in scheme.defects([X[:, i] for i in idx], [D[:, i] for i in idx], h):
+            for defect in scheme.defects([X[:, i] for i in idx], [D[i] for i in idx], h):
                 add(defect)
         self._boundary_rows = []
         for which, values in (("initial", problem.initial_values), ("final", problem.final_values)):
@@ -142,14 +146,15 @@ class Transcription:
         pr, e = self.problem, self.eqs
         x = ca.vertcat(e.q, e.u)
         d = ca.SX.sym("d", x.numel())
+        a = ca.SX.sym("a", e.nu)
         gam = ca.SX.sym("gamma", e.phi.numel())
         lam = pr.lam
-        args = [x, d, lam, gam, e.inputs, e.t]
         phi_q = ca.jacobian(e.phi, e.q)
-        kin = d[: e.nq] - e.qdot - (phi_q.T @ gam if e.phi.numel() else 0)
-        dyn = e.mass_matrix @ d[e.nq :] - e.forces - e.G.T @ lam
+        kin = e.qdot + (phi_q.T @ gam if e.phi.numel() else 0)
+        dyn = e.mass_matrix @ a - e.forces - e.G.T @ lam
         vel = e.G @ e.u + e.e
-        out = {"residuals": ca.Function("residuals", args, [ca.vertcat(kin, dyn), vel, e.phi])}
+        out = {"kinematics": ca.Function("kinematics", [x, gam, e.t], [kin]),
+               "residuals": ca.Function("residuals", [x, a, lam, e.inputs, e.t], [dyn, vel, e.phi])}
         pi = e.G @ e.u + e.e
         # d(pi)/dt at t0 with q' = D_q, u' = D_u; rows where an input enters are left out
         # (the input's rate there is the optimizer's free choice).
@@ -239,8 +244,8 @@ class Transcription:
                 W[r] = a + (pr.final_values.get(n, a) - a) * self.fractions
         for i in range(lay.n_points):
             X[: e.nq, i] = project_positions(e, X[: e.nq, i], t[i], inputs=W[:, i])
-        D = np.gradient(X, t, axis=1) if lay.n_points > 1 else np.zeros_like(X)
-        parts = [X.ravel(order="F"), D.ravel(order="F"), np.zeros(lay.nc * lay.n_points), W.ravel(order="F"),
+        A = np.gradient(X[e.nq :], t, axis=1) if lay.n_points > 1 else np.zeros((e.nu, 1))
+        parts = [X.ravel(order="F"), A.ravel(order="F"), np.zeros(lay.nc * lay.n_points), W.ravel(order="F"),
                  np.zeros(lay.nh * (lay.n_points - 1)), np.array([T] if lay.free_time else [])]
         return np.concatenate(parts)
 

@@ -17,7 +17,7 @@ from .solution import Trajectory
 
 @dataclass
 class OCPSolution:
-    """States, derivatives, multipliers and inputs at the collocation points, and solver stats."""
+    """States, accelerations ``D = u'``, multipliers and inputs at the collocation points, and solver stats."""
 
     transcription: object
     decision_vector: np.ndarray
@@ -41,7 +41,7 @@ class OCPSolution:
         eqs = tr.eqs
         traj = Trajectory(eqs)
         for i in range(lay.n_points):
-            traj.append(t[i], X[: eqs.nq, i], X[eqs.nq :, i], D[eqs.nq :, i], L[:, i], W[:, i], np.zeros(eqs.nc), 0.0, 0.0)
+            traj.append(t[i], X[: eqs.nq, i], X[eqs.nq :, i], D[:, i], L[:, i], W[:, i], np.zeros(eqs.nc), 0.0, 0.0)
         return cls(tr, w, t, X, D, L, W, t_final, objective, dict(stats), wall_time, traj)
 
     # -- status -------------------------------------------------------------------------------
@@ -92,6 +92,39 @@ class OCPSolution:
             ts, vs = self.t[idx], values[idx]
             out[n] = sum(vs[j] * np.prod([(tk - ts[s]) / (ts[j] - ts[s]) for s in range(p) if s != j]) for j in range(p))
         return out
+
+
+    def joint_work(self) -> dict[str, float]:
+        """Work of each joint load over the horizon (J): the scheme's quadrature of ``power``."""
+        quad = self.transcription.quadrature * self.t_final
+        loads = self.loads()
+        return {ch.prefix: float(quad @ loads[f"{ch.prefix}.power"]) for ch in self.transcription.eqs.load_channels}
+
+    def reintegrate(self, dt: float | None = None) -> dict:
+        """Forward-simulate the optimal inputs from the initial state and report the deviation.
+
+        The inputs are the collocation polynomials (linear between simulator samples);
+        the simulator is the core's (CVODES, rtol 1e-12). Returns the largest deviation of
+        the coordinates and speeds over the samples and at the final time, and the
+        simulated :class:`Trajectory`.
+        """
+        from .simulate import SimulationOptions, simulate
+
+        eqs = self.transcription.eqs
+        names = list(self.transcription.problem.model.inputs)
+        step = dt or self.t_final / (20 * self.transcription.scheme.intervals)
+
+        def inputs(t: float) -> np.ndarray:
+            return np.array([self.interpolate(n, min(t, self.t_final))[0] for n in names])
+
+        traj = simulate(eqs, self.X[: eqs.nq, 0], self.X[eqs.nq :, 0], self.t_final,
+                        SimulationOptions(dt=step, projection_interval=step), inputs=inputs if names else None)
+        state_names = eqs.model.coordinate_names + eqs.model.speed_names
+        sim = np.hstack([traj.q, traj.u])
+        col = np.column_stack([self.interpolate(n, traj.t) for n in state_names])
+        deviation = np.abs(sim - col)
+        return {"max_state_deviation": float(deviation.max()), "final_state_deviation": float(deviation[-1].max()),
+                "worst": state_names[int(deviation.max(axis=0).argmax())], "trajectory": traj}
 
 
 class OCPSolveError(OcpConstraintsError, RuntimeError):

@@ -121,9 +121,11 @@ def _write_trajectory_results(out_path: Path, traj: Trajectory, summary: dict, i
 
 def run_optimal_control(problem: OptimalControlProblem, scene_name: str, task: str, method,
                         out: str | Path | None = None, ipopt_options: dict | None = None,
-                        plots: bool = True) -> tuple[OCPSolution, dict]:
+                        plots: bool = True, reintegrate: bool = False) -> tuple[OCPSolution, dict]:
     """Solve ``problem`` with the transcription ``method``; write results if ``out`` is given.
 
+    ``summary`` carries the work of every joint load (e.g. a motor's energy) and, with
+    ``reintegrate``, the deviation of a forward simulation of the optimal inputs.
     A failed solve writes the last iterate with ``"success": false`` and re-raises.
     """
     out_path = prepare_output_folder(out) if out is not None else None
@@ -148,11 +150,15 @@ def run_optimal_control(problem: OptimalControlProblem, scene_name: str, task: s
         "wall_time": {"build": sol.wall_time["transcription"] + sol.wall_time["solver_setup"], **sol.wall_time},
         "objective": sol.objective,
         "max_constraint_residual": {"position": pos, "velocity": vel},
+        "joint_work": sol.joint_work(),
         "constraints": eqs.constraint_names,
         "joints": [ch.prefix for ch in eqs.load_channels],
         "inputs": list(problem.model.inputs),
         "software": software_versions(),
     }
+    if reintegrate and error is None:
+        check = sol.reintegrate()
+        summary["reintegration"] = {k: v for k, v in check.items() if k != "trajectory"}
     if out_path is not None:
         inputs = {n: sol.sample(n) for n in problem.model.inputs}
         _write_trajectory_results(out_path, sol.trajectory, summary, inputs, plots)

@@ -32,7 +32,7 @@ from ocp_constraints.scenes import Scene
 DESCRIPTION = "two-body chain on ball-and-socket joints (sec. 6): equal and opposite joint forces"
 
 DEFAULTS = {"m1": 1.0, "m2": 0.8, "link_length": 1.0, "gravity": 9.81, "t_final": 10.0, "quaternion": 0.0,
-            "task_duration": 2.0}
+            "task_duration": 2.0, "reach_psi": 0.5, "reach_theta": 0.3}
 
 J1 = [[0.090, 0.002, 0.004], [0.002, 0.010, 0.003], [0.004, 0.003, 0.085]]
 J2 = [[0.045, -0.002, 0.003], [-0.002, 0.008, 0.001], [0.003, 0.001, 0.042]]
@@ -63,10 +63,12 @@ def _model(p: dict[str, float], actuated: bool) -> Model:
 
 def reach(p: dict[str, float]) -> OptimalControlProblem:
     """Move the chain from rest at the scene's initial angles to rest at a reaching pose
-    (both links raised) in ``task_duration``, minimum int |tau|^2 dt over the six joint torques."""
+    (both links turned by ``reach_psi`` about E3 and raised by ``reach_theta``) in
+    ``task_duration``, minimum int |tau|^2 dt over the six joint torques."""
     ocp = OptimalControlProblem(_model(p, actuated=True), t_final=p["task_duration"])
     start = {"body1": ANGLES1, "body2": ANGLES2}
-    goal = {"body1": (0.6, math.pi / 2 - 0.3, 0.0), "body2": (0.9, math.pi / 2 - 0.6, 0.2)}
+    goal = {"body1": (ANGLES1[0] + p["reach_psi"], ANGLES1[1] - p["reach_theta"], ANGLES1[2]),
+            "body2": (ANGLES2[0] + p["reach_psi"], ANGLES2[1] - p["reach_theta"], ANGLES2[2])}
     for values, target in ((start, ocp.initial), (goal, ocp.final)):
         for body, angles in values.items():
             target({f"{body}.{c}": v for c, v in zip(("psi", "theta", "phi"), angles)})

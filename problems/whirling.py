@@ -38,8 +38,8 @@ DEFAULTS = {
     "theta_dot0": 0.0,
     "gravity": 9.81,
     "t_final": 10.0,
-    "task_duration": 4.0,
-    "task_theta_change": -0.4,
+    "task_duration": 2.0,
+    "task_theta_change": -0.3,
 }
 
 
