@@ -74,6 +74,12 @@ class Body:
         body basis ``e_i`` (kg m^2). Products of inertia are allowed.
     rotation
         ``"313"``, ``"321"`` (any Euler sequence) or ``"quaternion"``.
+    check_inertia
+        Keyword only. ``True`` (default): the inertia must be a physical rigid body's
+        (principal moments non-negative, each at most the sum of the other two).
+        ``False``: the triangle inequality is not enforced (symmetry and non-negative
+        principal moments still are), for imported models that carry such inertias
+        (OpenSim accepts them); ``inertia_warning`` then says what was accepted.
     """
 
     name: str
@@ -81,6 +87,8 @@ class Body:
     inertia: np.ndarray
     rotation: Rotation = field(default_factory=lambda: EulerSequence("313"))
     points: dict[str, Point] = field(default_factory=dict)
+    check_inertia: bool = field(default=True, kw_only=True)
+    inertia_warning: str | None = field(default=None, init=False)
 
     def __post_init__(self) -> None:
         if not self.name or not str(self.name).replace("_", "").isalnum():
@@ -95,10 +103,18 @@ class Body:
         principal = np.linalg.eigvalsh(J)
         scale = max(principal.max(), 1e-300)
         # A thin rod has a zero principal moment; anything else must be a physical tensor.
-        if principal.min() < -1e-12 * scale or principal.max() <= 0 or principal.sum() - 2 * principal.max() < -1e-12 * scale:
+        negative = principal.min() < -1e-12 * scale or principal.max() <= 0
+        triangle = principal.sum() - 2 * principal.max() < -1e-12 * scale
+        if negative or (triangle and self.check_inertia):
             raise ModelError(
                 f"body '{self.name}': inertia tensor {J.tolist()} is not physical: principal moments "
                 f"{principal.tolist()} must be non-negative and each at most the sum of the other two"
+                + ("" if negative else " (Body(..., check_inertia=False) accepts it, e.g. for an imported model)")
+            )
+        if triangle:
+            self.inertia_warning = (
+                f"body '{self.name}': principal moments of inertia {principal.tolist()} break the triangle "
+                "inequality (not a physical rigid body); used as given (check_inertia=False)"
             )
         self.inertia = J
         self.rotation = rotation_from_name(self.rotation)

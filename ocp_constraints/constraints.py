@@ -130,15 +130,20 @@ def derive_prescription(
     if expression.shape != (1, 1):
         raise ModelError(f"constraint '{name}': expression must be scalar, got shape {expression.shape}")
     vel = _velocity_symbols(bodies)
-    all_vel = ca.vertcat(*[v for _, v, _, _ in vel])
-    allowed = ca.vertcat(all_vel, time, extra_symbols, *[b.q for b in bodies])
-    for s in ca.symvar(expression):
-        if not ca.depends_on(allowed, s):
+    # Dependence by symbol identity: one symvar per expression and set look-ups, instead of
+    # ca.depends_on over every point of every body (which dominated model building).
+    vel_of = {s.element_hash(): label for label, v, _, _ in vel for s in ca.symvar(v)}
+    allowed = set(vel_of)
+    allowed.update(s.element_hash() for x in (time, extra_symbols, *[b.q for b in bodies]) for s in ca.symvar(x))
+    used_symbols = ca.symvar(expression)
+    for s in used_symbols:
+        if s.element_hash() not in allowed:
             raise ModelError(
                 f"constraint '{name}' uses the symbol '{s.name()}', which is not a coordinate, "
                 "velocity, input or the time of this model (was the body added to the model?)"
             )
-    used = [(label, v, b, p) for label, v, b, p in vel if ca.depends_on(expression, v)]
+    used_labels = {vel_of[h] for h in (s.element_hash() for s in used_symbols) if h in vel_of}
+    used = [(label, v, b, p) for label, v, b, p in vel if label in used_labels]
     if not used:
         raise ModelError(
             f"constraint '{name}' does not involve any velocity: write it at velocity level, "
@@ -147,15 +152,17 @@ def derive_prescription(
     grads = {}
     for label, v, b, p in used:
         g = ca.gradient(expression, v)
-        for label2, v2, _, _ in vel:
-            if ca.depends_on(g, v2):
-                raise NonAffineConstraintError(
-                    f"constraint '{name}' is not affine in the velocities: its derivative with "
-                    f"respect to {label} depends on {label2}. A constraint must read "
-                    "pi = f . v_C + h . omega + e with f, h, e functions of coordinates and time "
-                    "only (paper eq. 25)"
-                )
+        in_g = {vel_of.get(s.element_hash()) for s in ca.symvar(g)}
+        label2 = next((lab for lab, _, _, _ in vel if lab in in_g), None)   # first in model order, as before
+        if label2 is not None:
+            raise NonAffineConstraintError(
+                f"constraint '{name}' is not affine in the velocities: its derivative with "
+                f"respect to {label} depends on {label2}. A constraint must read "
+                "pi = f . v_C + h . omega + e with f, h, e functions of coordinates and time "
+                "only (paper eq. 25)"
+            )
         grads[label] = g
+    all_vel = ca.vertcat(*[v for _, v, _, _ in used])
     e = ca.substitute(expression, all_vel, ca.SX.zeros(all_vel.shape))
     shares = []
     for b in bodies:

@@ -66,11 +66,11 @@ class Model:
         self.gravity = tuple(g)
 
     # -- building ----------------------------------------------------------------
-    def add_body(self, name: str, mass: float, inertia, rotation="313") -> Body:
-        """Add a rigid body (see :class:`~ocp_constraints.bodies.Body`)."""
+    def add_body(self, name: str, mass: float, inertia, rotation="313", *, check_inertia: bool = True) -> Body:
+        """Add a rigid body (see :class:`~ocp_constraints.bodies.Body`, also for ``check_inertia``)."""
         if name in self.bodies:
             raise ModelError(f"model '{self.name}' already has a body named '{name}'")
-        body = Body(name, mass, inertia, rotation)
+        body = Body(name, mass, inertia, rotation, check_inertia=check_inertia)
         self.bodies[name] = body
         return body
 

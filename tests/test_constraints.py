@@ -662,3 +662,16 @@ def test_dual_basis_joints_on_a_quaternion_body_are_rejected_naming_the_body():
             add()
         assert "'wheel'" in str(info.value) and "Euler" in str(info.value)
     assert m.joints == {}
+
+
+def test_inertia_breaking_the_triangle_inequality_needs_check_inertia_false():
+    from ocp_constraints.bodies import Body
+
+    J = np.diag([8.1e-5, 1.6e-4, 8.1e-4])          # JW's toes: 8.1e-4 > 8.1e-5 + 1.6e-4
+    with pytest.raises(ModelError, match=r"toes.*not physical.*check_inertia=False"):
+        Body("toes", 0.2, J, "quaternion")
+    b = Model("m").add_body("toes", 0.2, J, "quaternion", check_inertia=False)
+    assert np.array_equal(b.inertia, J) and "triangle inequality" in b.inertia_warning
+    assert Body("ok", 1.0, np.diag([1.0, 2.0, 2.5])).inertia_warning is None
+    with pytest.raises(ModelError, match="not physical"):           # negative moments stay errors
+        Body("neg", 1.0, np.diag([-1.0, 2.0, 2.5]), check_inertia=False)

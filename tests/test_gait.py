@@ -1,4 +1,13 @@
-"""Inverse dynamics of real gait trials against OpenSim's own inverse dynamics."""
+"""Inverse dynamics of real gait trials against OpenSim's own inverse dynamics.
+
+gait2354 has two OpenSim references: the ``inverse_dynamics.sto`` shipped with the example
+(made by an older OpenSim) and ``tests/data/gait2354_subject01_id_opensim46.sto`` made by
+OpenSim 4.6 from exactly our inputs (see tests/data/README.md). We reproduce the second
+to 0.01 N m; the first differs from OpenSim 4.6 itself by 3.1 % of peak at the right knee.
+"""
+import importlib.util
+import subprocess
+import sys
 from pathlib import Path
 
 import casadi as ca
@@ -13,6 +22,8 @@ DATA = Path(__file__).resolve().parents[2] / "shared" / "data"
 G = DATA / "opensim-gait2354-subject01"
 J = DATA / "grand-challenge-knee-jw"
 JW_MODEL = J / "reducepoly_model" / "JW_All_Body_Model-scaled_forvisualization_leftright_v42.osim"
+OPENSIM46 = Path(__file__).resolve().parent / "data" / "gait2354_subject01_id_opensim46.sto"
+FLEXION_R = ["hip_flexion_r", "knee_angle_r", "ankle_angle_r"]
 KNEE = ["knee_flexion", "knee_adduction", "knee_rotation", "knee_tx", "knee_ty", "knee_tz"]
 
 
@@ -33,23 +44,62 @@ def jw():
     return r, ref
 
 
-def test_gait2354_right_leg_against_opensim(gait):
-    r, ref = gait
-    c = compare(r, ref, ["hip_flexion_r", "knee_angle_r", "ankle_angle_r"])
-    assert c["ankle_angle_r"]["percent"] < 0.5
-    assert c["hip_flexion_r"]["percent"] < 2.0
-    assert c["knee_angle_r"]["percent"] < 3.5      # target 2 %: not met yet (see README note)
+def test_gait2354_every_coordinate_against_opensim_46(gait):
+    """OpenSim 4.6's InverseDynamicsTool on the same files: all 23 generalized forces."""
+    r, _ = gait
+    ref = read_forces(OPENSIM46)
+    c = compare(r, ref, r.coordinate_names)
+    for k in FLEXION_R:
+        assert c[k]["percent"] <= 2.0, (k, c[k])            # the issue's target
+    for k, v in c.items():
+        assert v["rms"] < 0.01 and v["percent"] < 0.05, (k, v)   # measured: <= 0.004 N m, 0.01 %
     assert r.plates == {"plate1": "right", "plate2": "left"}   # as the ExternalLoads XML says
     assert r.residual.max() < 1e-8
+
+
+def test_gait2354_right_leg_against_shipped_reference(gait):
+    """The example's own inverse_dynamics.sto (older OpenSim): hip and ankle within 2 %.
+
+    Its knee differs from OpenSim 4.6's by 3.1 % of peak (and ours equals OpenSim 4.6's,
+    test above), so the knee is held to what OpenSim 4.6 itself achieves against it.
+    """
+    r, ref = gait
+    c = compare(r, ref, FLEXION_R)
+    assert c["hip_flexion_r"]["percent"] <= 2.0          # measured 1.51 %
+    assert c["ankle_angle_r"]["percent"] <= 2.0          # measured 0.15 %
+    osim46 = read_forces(OPENSIM46)
+    knee46 = np.interp(ref.time, osim46.time, osim46.columns["knee_angle_r_moment"]) - ref.columns["knee_angle_r_moment"]
+    gap46 = 100 * np.sqrt(np.mean(knee46 ** 2)) / np.max(np.abs(ref.columns["knee_angle_r_moment"]))
+    assert abs(c["knee_angle_r"]["percent"] - gap46) < 0.05, (c["knee_angle_r"], gap46)   # both 3.08 %
+
+
+@pytest.mark.skipif(importlib.util.find_spec("opensim") is None,
+                    reason="optional cross-check: the 'opensim' package is not installed (pip install opensim)")
+def test_opensim_live_crosscheck(gait, tmp_path):
+    """Run OpenSim's InverseDynamicsTool now (own process: its wheel carries its own CasADi)."""
+    r, _ = gait
+    out = tmp_path / "id.sto"
+    proc = subprocess.run([sys.executable, str(Path(__file__).with_name("opensim_id_reference.py")),
+                           str(G / "subject01_simbody.osim"), str(G / "subject01_walk1_ik.mot"),
+                           str(G / "subject01_walk1_grf.xml"), "0.4", "1.6", str(out)],
+                          capture_output=True, text=True, timeout=600)
+    assert proc.returncode == 0, proc.stderr[-2000:]
+    live, stored = read_forces(out), read_forces(OPENSIM46)
+    for name in stored.columns:
+        np.testing.assert_allclose(live.columns[name], stored.columns[name], atol=1e-6, err_msg=name)
+    for k, v in compare(r, live, r.coordinate_names).items():
+        assert v["rms"] < 0.01, (k, v)
 
 
 def test_jw_six_knee_generalized_forces_against_opensim(jw):
     r, ref = jw
     c = compare(r, ref, KNEE)
     for k in KNEE:
-        assert c[k]["percent"] <= 2.0, (k, c[k])
+        assert c[k]["percent"] <= 2.0, (k, c[k])      # measured: flexion 1.98 %, the others below 0.7 %
     assert r.plates["plate2"] == "right" and r.plates["plate1"] == "left"    # SOURCE.md
-    assert r.timings["total"] < 10.0
+    # Speed (issue target: 5 s from files to results) is measured by scripts/gait_tables.py,
+    # not asserted here: a timed test fails on a busy machine, not on slow code.
+    assert any("toes" in w and "triangle inequality" in w for w in r.warnings)
 
 
 def test_lagrange_prescription_equals_jourdain_projection(gait):

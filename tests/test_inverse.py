@@ -98,3 +98,25 @@ def test_non_finite_samples_are_named():
     q[1, 3] = np.nan
     with pytest.raises(ModelError, match=r"q is not finite at sample 1"):
         InverseDynamics(eqs).solve([0, 1], q, np.zeros((2, 6)), np.zeros((2, 6)))
+
+
+def test_external_loads_enter_as_applied_loads():
+    """A measured force F at the rod's tip, held still: motor = m g r sin(a) - (r_tip x F)_z, hinge takes the rest."""
+    model = _actuated_rod()
+    eqs = SystemEquations(model)
+    angles = np.array([-0.4, 0.3, 1.0])
+    r, F = 0.5, np.array([3.0, -5.0, 0.0])
+    q = np.array([[r * math.sin(a), -r * math.cos(a), 0, a, 0, 0] for a in angles])
+    ext = np.zeros((3, 6))
+    ext[:, :3] = F
+    tip_from_com = np.array([[r * math.sin(a), -r * math.cos(a), 0] for a in angles])   # tip at 2 r from the hinge
+    ext[:, 3:] = np.cross(tip_from_com, F)                                                 # moment about the com
+    zeros = np.zeros((3, 6))
+    res = InverseDynamics(eqs).solve(angles * 0, q, zeros, zeros, external=ext)
+    tip = 2 * tip_from_com
+    assert np.allclose(res.input("motor"), 2.0 * 9.81 * r * np.sin(angles) - np.cross(tip, F)[:, 2], rtol=1e-12, atol=1e-12)
+    assert np.allclose(res.multiplier("hinge.v1"), -F[0], atol=1e-12)
+    assert np.allclose(res.multiplier("hinge.v2"), 2.0 * 9.81 - F[1], atol=1e-12)
+    assert res.residual.max() < 1e-12
+    with pytest.raises(ModelError, match=r"external must have shape \(3, 6\)"):
+        InverseDynamics(eqs).solve(angles * 0, q, zeros, zeros, external=ext[:, :3])
