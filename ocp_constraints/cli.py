@@ -7,6 +7,7 @@
     ocp-constraints export-c SCENE --out DIR [--param name=value ...] [--no-verify]
     ocp-constraints bench-export [SCENE ...] [--runs N] [--markdown [PATH]]
     ocp-constraints gait --model MODEL.osim --motion IK --grf GRF [--side right] [--start T0 --end T1] --out DIR
+    ocp-constraints bench [SCENE ...] [--quick] [--target-error E] [--out DIR]
 
 SCENE is a built-in scene name (see ``list``) or the path of a scene file. Errors in
 the input are reported in one line naming the culprit, with exit status 2; a
@@ -43,11 +44,13 @@ def _parser() -> argparse.ArgumentParser:
     o.add_argument("--no-plots", action="store_true", help="write no PNG plots")
     o.add_argument("--reintegrate", action="store_true", help="forward-simulate the optimal inputs and report the deviation")
     o.set_defaults(handler=_solve)
+    from .bench import add_bench_parser
     from .export import add_export_parser
     from .gait import add_gait_parser
 
     add_export_parser(sub)
     add_gait_parser(sub)
+    add_bench_parser(sub)
     return p
 
 

@@ -1,0 +1,149 @@
+"""Scaling and slow stress runs of ``ocp-constraints bench``.
+
+Each scaling point runs in its own Python process, so the peak resident memory
+(``resource.getrusage(...).ru_maxrss``) is that of the one point:
+
+- optimal control: the pendulum swing-up with Radau degree 3 at N = 25 ... 1,600;
+- bodies: a chain of n = 1 ... 20 bodies on ball-and-socket joints (built with
+  :class:`~ocp_constraints.model.Model` and :func:`~ocp_constraints.joints.ball_and_socket`,
+  unit-quaternion rotations), simulated for 1 s.
+
+Slow stress cases: 1,000 s of ``sliding_cylinder`` (against its exact motion) and of
+``pendulum`` (energy balance), and ``whirling`` at Omega = 1e3 rad/s.
+"""
+from __future__ import annotations
+
+import json
+import resource
+import subprocess
+import sys
+import time
+
+import numpy as np
+
+OCP_N = (25, 50, 100, 200, 400, 800, 1600)
+CHAIN_N = (1, 2, 4, 8, 12, 16, 20)
+
+
+def chain_model(n: int):
+    """n slender bodies hanging in a chain from the origin, each on a ball-and-socket joint."""
+    from . import joints
+    from .model import Model
+
+    model = Model(f"chain{n}", gravity=(0.0, 0.0, -9.81))
+    prev = None
+    for i in range(n):
+        b = model.add_body(f"b{i}", 1.0, np.diag([0.09, 0.09, 0.01]), rotation="quaternion")
+        top = b.point("top", (0.0, 0.0, 0.3))
+        joints.ball_and_socket(model, f"j{i}", top, prev)
+        prev = b.point("bottom", (0.0, 0.0, -0.3))
+    coords, rates = {}, {}
+    tilt = 0.3  # every link rotated by tilt about E2: e3 = (sin tilt, 0, cos tilt); top = center + 0.3 e3
+    e3 = np.array([np.sin(tilt), 0.0, np.cos(tilt)])
+    for i in range(n):
+        center = -0.6 * i * e3 - 0.3 * e3
+        coords.update({f"b{i}.qw": np.cos(tilt / 2), f"b{i}.qx": 0.0, f"b{i}.qy": np.sin(tilt / 2), f"b{i}.qz": 0.0})
+        coords.update({f"b{i}.x": center[0], f"b{i}.y": center[1], f"b{i}.z": center[2]})
+        rates[f"b{i}.omega_z"] = 0.5
+    return model, coords, rates
+
+
+def _measure(kind: str, n: int) -> dict:
+    if kind == "ocp":
+        from .scenes import build_task
+        from .transcription import Radau
+
+        _, problem = build_task("pendulum", "swing_up")
+        sol = problem.solve(Radau(n, degree=3))
+        w = sol.wall_time
+        out = {"build_s": w["transcription"] + w["solver_setup"], "solve_s": w["solve"], "iterations": sol.iterations,
+               "objective": sol.objective}
+    else:
+        from .equations import SystemEquations
+        from .simulate import simulate
+        from .state import consistent_state
+
+        started = time.perf_counter()
+        model, coords, rates = chain_model(n)
+        eqs = SystemEquations(model)
+        q0, u0 = consistent_state(eqs, coords, rates)
+        built = time.perf_counter()
+        traj = simulate(eqs, q0, u0, 1.0)
+        out = {"build_s": built - started, "solve_s": time.perf_counter() - built, "residuals": traj.residuals(),
+               "nq": eqs.nq, "nc": eqs.nc}
+    out["peak_rss_mb"] = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024
+    return out
+
+
+def _fit(x, y) -> float:
+    return float(np.polyfit(np.log(x), np.log(y), 1)[0])
+
+
+def _run_point(kind: str, n: int) -> dict:
+    res = subprocess.run([sys.executable, "-m", "ocp_constraints.bench_scaling", kind, str(n)], capture_output=True, text=True,
+                         timeout=1800)
+    if res.returncode:
+        return {"error": res.stderr.strip().splitlines()[-1] if res.stderr.strip() else f"exit {res.returncode}"}
+    return json.loads(res.stdout.strip().splitlines()[-1])
+
+
+def run_scaling_and_stress(out, log=print) -> dict:
+    points = {"ocp": {}, "chain": {}}
+    for kind, grid in (("ocp", OCP_N), ("chain", CHAIN_N)):
+        for n in grid:
+            points[kind][n] = _run_point(kind, n)
+            log(f"  {kind} n={n}: {points[kind][n]}")
+    md = ["| what | n | build (s) | solve (s) | peak memory (MB) |", "|---|---|---|---|---|"]
+    fits = {}
+    for kind, label in (("ocp", "swing-up Radau3, N intervals"), ("chain", "chain of n bodies, 1 s simulation")):
+        good = {n: p for n, p in points[kind].items() if "error" not in p}
+        for n, p in points[kind].items():
+            md.append(f"| {label} | {n} | {p.get('build_s', float('nan')):.3f} | {p.get('solve_s', float('nan')):.3f} | "
+                      f"{p.get('peak_rss_mb', float('nan')):.0f} |" if "error" not in p else f"| {label} | {n} | failed: {p['error']} | | |")
+        if len(good) >= 2:
+            ns = np.array(sorted(good))
+            fits[kind] = {q: _fit(ns, [good[n][q] for n in ns]) for q in ("build_s", "solve_s", "peak_rss_mb")}
+    md.append("")
+    for kind, f in fits.items():
+        md.append(f"Fitted exponents ({kind}, time ~ n^k over the whole range): build {f['build_s']:.2f}, solve {f['solve_s']:.2f}, "
+                  f"peak memory {f['peak_rss_mb']:.2f}.")
+    stress = slow_stress(log)
+    md += ["", "Slow stress cases:", ""] + [f"- {k}: {v}" for k, v in stress.items()]
+    return {"points": points, "fits": fits, "stress": stress, "markdown": "\n".join(md)}
+
+
+def slow_stress(log=print) -> dict:
+    from .bench_reference import sliding_cylinder_reference
+    from .equations import SystemEquations
+    from .scenes import build_scene
+    from .simulate import SimulationOptions, simulate
+    from .state import consistent_state
+    from .tasks import energy_balance
+
+    out = {}
+    for name, T, over in (("sliding_cylinder", 1000.0, {}), ("pendulum", 1000.0, {}), ("whirling", 1.0, {"omega": 1000.0})):
+        scene = build_scene(name, over)
+        eqs = SystemEquations(scene.model)
+        q0, u0 = consistent_state(eqs, scene.coordinates, scene.rates)
+        started = time.perf_counter()
+        traj = simulate(eqs, q0, u0, T, SimulationOptions(dt=0.1 if T > 100 else 0.001))
+        wall = time.perf_counter() - started
+        pos, vel = traj.residuals()
+        e = energy_balance(traj)["relative_error"]
+        msg = f"{T:g} s in {wall:.1f} s; residuals position {pos:.1e}, velocity {vel:.1e}; energy balance error {e:.1e} (relative)"
+        if name == "sliding_cylinder":
+            ref = sliding_cylinder_reference(scene.model.parameters, traj.t)
+            cols = traj.state_columns()
+            err = max(float(np.abs(cols[k] - v).max()) for k, v in ref["states"].items())
+            lam = traj.multiplier_columns()
+            le = max(float(np.abs(lam[k] - v).max() / np.abs(v).max()) for k, v in ref["lambda"].items())
+            msg += f"; max state error against the exact motion {err:.1e}, lambda error {le:.1e} (relative)"
+        if name == "whirling":
+            msg = f"Omega = {over['omega']:g} rad/s: " + msg + f"; max |lambda| {np.abs(traj.lam).max():.2e}"
+        out[name] = msg
+        log(f"  {name}: {msg}")
+    return out
+
+
+if __name__ == "__main__":
+    print(json.dumps(_measure(sys.argv[1], int(sys.argv[2]))))
