@@ -123,7 +123,10 @@ class Transcription:
                 add(point["path"](X[:, i], L[:, i], W[:, i], t_i), lo, hi)
         add(point["acceleration"](X[:, 0], D[0], W[:, 0], 0 * T))
         if not scheme.first_point_has_controls and n_in and not ca.depends_on(ca.vertcat(ca.vec(e.G), e.e), e.inputs):
-            add(W[:, 0] - W[:, 1])  # Radau never uses inputs at t0: hold the first interval's
+            # Radau never uses inputs at t0 in its defects: take the first interval's input
+            # polynomial there, so that lambda_0 (from the acceleration constraint) is consistent.
+            ell = scheme.start_extrapolation
+            add(W[:, 0] - sum(ell[j] * W[:, j + 1] for j in range(len(ell))))
         for k in range(N):
             idx = [k * (p - 1) + j for j in range(p)]
             h = (mesh[k + 1] - mesh[k]) * T

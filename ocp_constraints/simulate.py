@@ -30,13 +30,15 @@ class SimulationOptions:
     """Integrator settings (the defaults keep energy and residual errors near 1e-10).
 
     ``dt`` is the output sampling; ``projection_interval`` how often the state is put
-    back on the constraint manifold (CVODES restarts there, so not too often).
+    back on the constraint manifold (CVODES restarts there, so not too often); where a
+    projection corrects more than ``drift_tolerance``, the interval is halved from then on.
     """
 
     dt: float = 0.01
     rtol: float = 1e-12
     atol: float = 1e-12
     projection_interval: float = 0.5
+    drift_tolerance: float = 1e-9
     max_steps: int = 500_000
     method: str = "adams"
 
@@ -173,5 +175,7 @@ def simulate(
         q, u, dq, du = project_state(eqs, X[: eqs.nq, -1], X[eqs.nq :, -1], times[k + n], input_at(times[k + n]))
         work = work + W[:, -1]
         record(k + n, q, u, work, dq, du)
+        if max(dq, du) > opts.drift_tolerance and per_segment > 1:
+            per_segment = max(1, per_segment // 2)
         k += n
     return traj

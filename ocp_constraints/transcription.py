@@ -166,6 +166,14 @@ class Radau(Scheme):
         return False
 
     @property
+    def start_extrapolation(self) -> np.ndarray:
+        """``l_j(0)`` for the Lagrange basis through the collocation points: inputs at ``t_0``
+        are the first interval's input polynomial extrapolated there."""
+        pts = self.tau[1:]
+        return np.array([np.prod([(0.0 - pts[s]) / (pts[j] - pts[s]) for s in range(len(pts)) if s != j])
+                         for j in range(len(pts))])
+
+    @property
     def order(self) -> int:
         return 2 * self.degree - 1
 
