@@ -281,8 +281,10 @@ def test_iteration_limit_keeps_last_iterate():
 
 
 def test_restoration_phase_start_reaches_the_same_optimum():
-    plain = _swing_up().solve(Radau(10, degree=3))
-    resto = _swing_up().solve(Radau(10, degree=3), {"ipopt.start_with_resto": "yes"})
+    # N = 20: at N = 10 the two starts land in different local optima (13.68 and 8.95),
+    # which says nothing about the restoration phase.
+    plain = _swing_up().solve(Radau(20, degree=3))
+    resto = _swing_up().solve(Radau(20, degree=3), {"ipopt.start_with_resto": "yes"})
     assert resto.success
     assert resto.objective == pytest.approx(plain.objective, rel=1e-6)
 
