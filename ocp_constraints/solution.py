@@ -77,9 +77,13 @@ class Trajectory:
     def multiplier_columns(self) -> dict[str, np.ndarray]:
         return {f"{n}.lambda": self.lam[:, k] for k, n in enumerate(self.eqs.constraint_names)}
 
+    def input_columns(self) -> dict[str, np.ndarray]:
+        inputs = self._array("inputs").reshape(len(self), self.eqs.inputs.numel())
+        return {n: inputs[:, k] for k, n in enumerate(self.eqs.model.inputs)}
+
     def sample(self, name: str) -> np.ndarray:
-        """Values of a named quantity at every sample (coordinate, rate, speed or multiplier)."""
-        cols = {**self.state_columns(), **self.multiplier_columns()}
+        """Values of a named quantity at every sample (coordinate, rate, speed, multiplier or input)."""
+        cols = {**self.state_columns(), **self.multiplier_columns(), **self.input_columns()}
         if name not in cols:
             raise ModelError(f"no quantity named '{name}'; available: {sorted(cols)}")
         return cols[name]

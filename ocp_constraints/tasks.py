@@ -57,7 +57,7 @@ def run_simulation(scene: Scene, scene_name: str, t_final: float | None = None, 
     t_end = float(scene.t_final if t_final is None else t_final)
     started = time.perf_counter()
     eqs = SystemEquations(scene.model)
-    q0, u0 = consistent_state(eqs, scene.coordinates, scene.rates)
+    q0, u0 = consistent_state(eqs, scene.coordinates, scene.rates, inputs=scene.inputs(0.0) if scene.inputs else None)
     built = time.perf_counter()
     error: SimulationError | None = None
     try:
@@ -90,32 +90,26 @@ def run_simulation(scene: Scene, scene_name: str, t_final: float | None = None, 
         "joints": [ch.prefix for ch in eqs.load_channels],
         "software": software_versions(),
     }
+    summary["wall_time"]["total"] = time.perf_counter() - started
     if out_path is not None:
-        states = traj.state_columns()
-        loads = traj.loads()
-        write_csv(out_path / "trajectory.csv", traj.t, states)
-        write_csv(out_path / "loads.csv", traj.t, loads)
-        if plots:
-            series = energy["series"]
-            summary["plots"] = write_plots(out_path, traj.t, states, loads, summary["joints"],
-                                           {"E = T + U": series["total"], "constraint work": series["constraint_work"]})
-        summary["wall_time"]["total"] = time.perf_counter() - started
-        write_json(out_path / "summary.json", summary)
-    else:
-        summary["wall_time"]["total"] = time.perf_counter() - started
+        series = energy["series"]
+        inputs = {n: traj.sample(n) for n in scene.model.inputs}
+        write_trajectory_results(out_path, traj, summary, inputs, plots,
+                                 {"E = T + U": series["total"], "constraint work": series["constraint_work"]})
     if error is not None:
         raise error
     return traj, summary
 
 
-def _write_trajectory_results(out_path: Path, traj: Trajectory, summary: dict, inputs: dict[str, np.ndarray], plots: bool) -> None:
-    """trajectory.csv (states, then inputs), loads.csv, plots, and summary.json last."""
+def write_trajectory_results(out_path: Path, traj: Trajectory, summary: dict, inputs: dict[str, np.ndarray],
+                             plots: bool, energy: dict[str, np.ndarray] | None = None) -> None:
+    """trajectory.csv (states, then inputs), loads.csv, plots, and summary.json last (DESIGN.md)."""
     states = {**traj.state_columns(), **inputs}
     loads = traj.loads()
     write_csv(out_path / "trajectory.csv", traj.t, states)
     write_csv(out_path / "loads.csv", traj.t, loads)
     if plots:
-        summary["plots"] = write_plots(out_path, traj.t, states, loads, summary["joints"])
+        summary["plots"] = write_plots(out_path, traj.t, states, loads, summary["joints"], energy)
     write_json(out_path / "summary.json", summary)
 
 
@@ -161,7 +155,7 @@ def run_optimal_control(problem: OptimalControlProblem, scene_name: str, task: s
         summary["reintegration"] = {k: v for k, v in check.items() if k != "trajectory"}
     if out_path is not None:
         inputs = {n: sol.sample(n) for n in problem.model.inputs}
-        _write_trajectory_results(out_path, sol.trajectory, summary, inputs, plots)
+        write_trajectory_results(out_path, sol.trajectory, summary, inputs, plots)
     if error is not None:
         raise error
     return sol, summary
