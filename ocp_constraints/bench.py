@@ -18,7 +18,6 @@ reference multiplier). Benchmarks measure this machine; they are not tests.
 from __future__ import annotations
 
 import csv
-import json
 import platform
 import statistics
 import time
@@ -28,7 +27,7 @@ from pathlib import Path
 import numpy as np
 
 from . import bench_peers as peers
-from .bench_sweeps import OCP_TASKS, SIM_SCENES, Row, sweep_ocp, sweep_sim
+from .bench_sweeps import OCP_TASKS, SIM_SCENES, Row
 
 DEFAULT_OUT = "results/bench"
 QUICK_SCENES = ("pendulum", "sliding_cylinder", "sliding_disk")

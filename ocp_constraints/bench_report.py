@@ -3,11 +3,10 @@ from __future__ import annotations
 
 import json
 import time
-from pathlib import Path
 
 import numpy as np
 
-from .bench import (LAMBDA_TARGET, QUICK_SCENES, cheapest, error_of, machine, markdown_table, peer_ratios,
+from .bench import (LAMBDA_TARGET, QUICK_SCENES, cheapest, machine, markdown_table, peer_ratios,
                     plot_work_precision, run_peers, write_csv_rows)
 from .bench_sweeps import OCP_TASKS, SIM_SCENES, sweep_ocp, sweep_sim
 from .errors import SceneError

@@ -55,12 +55,15 @@ def _parser() -> argparse.ArgumentParser:
 
 
 def _list() -> int:
-    from .scenes import builtin_scene_names, scene_description
+    from .scenes import builtin_scene_names, load_scene_module
 
     names = builtin_scene_names()
     width = max(len(n) for n in names)
     for n in names:
-        print(f"{n:<{width}}  {scene_description(n)}")
+        module = load_scene_module(n)
+        tasks = getattr(module, "TASKS", {})
+        extra = f"  [solve tasks: {', '.join(tasks)}]" if tasks else ""
+        print(f"{n:<{width}}  {getattr(module, 'DESCRIPTION', '').strip()}{extra}")
     return 0
 
 

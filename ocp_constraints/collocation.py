@@ -178,7 +178,7 @@ class Transcription:
 
     # -- bounds and guess ---------------------------------------------------------------------
     def _bounds(self, x0: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        lay, pr, e = self.layout, self.problem, self.eqs
+        lay, pr = self.layout, self.problem
         lo = [np.full(n, -np.inf) for n in lay.sizes()]
         hi = [np.full(n, np.inf) for n in lay.sizes()]
         names_x = pr.model.coordinate_names + pr.model.speed_names

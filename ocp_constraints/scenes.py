@@ -10,7 +10,6 @@ import importlib
 import importlib.util
 import math
 import pkgutil
-import sys
 import traceback
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -130,8 +129,3 @@ def parse_param_arguments(items: list[str]) -> dict[str, str]:
             raise SceneError(f"--param '{item}' must look like name=value")
         out[key.strip()] = value.strip()
     return out
-
-
-def scene_description(name: str) -> str:
-    module = sys.modules.get(f"problems.{name}") or importlib.import_module(f"problems.{name}")
-    return getattr(module, "DESCRIPTION", "").strip()

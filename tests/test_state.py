@@ -62,7 +62,6 @@ def test_unknown_and_missing_names_are_errors():
 
 
 def test_a_position_form_that_is_not_the_integral_of_the_constraint_is_named():
-    import casadi as ca
 
     from ocp_constraints import Model
 
