@@ -7,6 +7,7 @@
     ocp-constraints export-c SCENE --out DIR [--param name=value ...] [--no-verify]
     ocp-constraints bench-export [SCENE ...] [--runs N] [--markdown [PATH]]
     ocp-constraints gait --model MODEL.osim --motion IK --grf GRF [--side right] [--start T0 --end T1] --out DIR
+    ocp-constraints knee --model MODEL.osim --motion IK --grf GRF [--measured KCF] [--muscle-model hill|ideal] --out DIR
     ocp-constraints bench [SCENE ...] [--quick] [--target-error E] [--out DIR]
 
 SCENE is a built-in scene name (see ``list``) or the path of a scene file. Errors in
@@ -47,9 +48,11 @@ def _parser() -> argparse.ArgumentParser:
     from .bench import add_bench_parser
     from .export import add_export_parser
     from .gait import add_gait_parser
+    from .knee_cli import add_knee_parser
 
     add_export_parser(sub)
     add_gait_parser(sub)
+    add_knee_parser(sub)
     add_bench_parser(sub)
     return p
 

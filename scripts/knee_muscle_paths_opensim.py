@@ -1,0 +1,104 @@
+"""OpenSim side of the knee muscle-path preprocessing (run by scripts/knee_muscle_fits.py).
+
+Runs in its own process (the ``opensim`` wheel and ``casadi`` clash in one process).
+Loads the JW model, samples muscle-tendon lengths of the right-leg muscles over the
+range of motion (OpenSim's own path computation: path points, conditional points and
+wrap objects) and sweeps OpenSim's moment arms over knee angles.
+
+Usage: python knee_muscle_paths_opensim.py MODEL.osim OUT.json [n_samples] [seed]
+"""
+import json
+import sys
+
+import numpy as np
+import opensim as osim
+
+PRIMARY = {  # coordinate: sampled range (rad); gait range of ngait_og5 plus a margin
+    "hip_flexion": (-0.85, 0.60), "hip_adduction": (-0.30, 0.30), "hip_rotation": (-0.55, 0.15),
+    "knee_flexion": (-1.40, 0.20), "ankle_angle": (-0.45, 0.45), "subtalar_angle": (-0.30, 0.30)}
+SECONDARY = {"knee_adduction": 0.05, "knee_rotation": 0.05, "knee_tx": 0.003, "knee_ty": 0.003, "knee_tz": 0.003}
+KNEE_TY = 0.042            # the JW model's default knee_ty (m); IK holds it there
+PATELLA = ("patfem_flexion", "knee_flexion", 1.57)   # CoordinateCouplerConstraint patfem_flexion_con
+SKIP = ("_withreallength",)   # duplicates of recfem/vasint/vaslat/vasmed kept for length bookkeeping
+TRUNK = ("ercspn", "intobl", "extobl")
+
+
+def main(model_path, out_path, n=4000, seed=7):
+    model = osim.Model(model_path)
+    state = model.initSystem()
+    cs = model.getCoordinateSet()
+    for i in range(cs.getSize()):
+        cs.get(i).setLocked(state, False)
+    muscles = []
+    ms = model.getMuscles()
+    for i in range(ms.getSize()):
+        name = ms.get(i).getName()
+        if name.endswith("_l") or "_l_" in name or name.startswith(TRUNK) or any(s in name for s in SKIP):
+            continue
+        muscles.append(name)
+    dep, indep, offset = PATELLA
+
+    def pose(values):
+        full = {c: 0.0 for c in PRIMARY}
+        full.update({c: 0.0 for c in SECONDARY})
+        full["knee_ty"] = KNEE_TY
+        full.update(values)
+        full[dep] = full[indep] + offset
+        for c, v in full.items():
+            cs.get(c).setValue(state, float(v), False)
+        model.realizePosition(state)
+
+    def lengths():
+        return [ms.get(m).getLength(state) for m in muscles]
+
+    rng = np.random.default_rng(seed)
+    names = list(PRIMARY) + list(SECONDARY)
+    X = np.zeros((n, len(names)))
+    for j, c in enumerate(PRIMARY):
+        X[:, j] = rng.uniform(*PRIMARY[c], n)
+    for j, c in enumerate(SECONDARY):
+        # half of the samples at the secondary origin (the poses of the IK), half perturbed
+        X[:, len(PRIMARY) + j] = np.where(np.arange(n) % 2 == 0, 0.0, rng.uniform(-1, 1, n) * SECONDARY[c])
+    X[:, names.index("knee_ty")] += KNEE_TY
+    L = np.zeros((n, len(muscles)))
+    for k in range(n):
+        pose(dict(zip(names, X[k])))
+        L[k] = lengths()
+    # which coordinates each muscle spans: finite differences at a few poses
+    spans = {m: [] for m in muscles}
+    for k in range(6):
+        base = dict(zip(names, X[2 * k]))
+        pose(base)
+        L0 = np.array(lengths())
+        for c in names:
+            h = 0.01 if c in PRIMARY or c in ("knee_adduction", "knee_rotation") else 0.001
+            pose({**base, c: base[c] + h})
+            d = np.abs(np.array(lengths()) - L0)
+            for i, m in enumerate(muscles):
+                if d[i] > 1e-7 and c not in spans[m]:
+                    spans[m].append(c)
+    # moment-arm sweep: knee angles, other coordinates at 0 (knee_ty at its default)
+    sweep = np.radians(np.arange(-75.0, 10.01, 5.0))
+    arms = {c: np.zeros((len(sweep), len(muscles))) for c in ("knee_flexion", "hip_flexion", "ankle_angle")}
+    fd = np.zeros((len(sweep), len(muscles)))
+    for k, q in enumerate(sweep):
+        pose({"knee_flexion": q})
+        for c in arms:
+            arms[c][k] = [ms.get(m).computeMomentArm(state, cs.get(c)) for m in muscles]
+        h = 1e-5
+        pose({"knee_flexion": q + h})
+        Lp = np.array(lengths())
+        pose({"knee_flexion": q - h})
+        fd[k] = -(Lp - np.array(lengths())) / (2 * h)
+    out = {"opensim_version": osim.GetVersionAndDate(), "model": model_path, "muscles": muscles,
+           "coordinates": names, "patella_coupling": {"dependent": dep, "independent": indep, "offset": offset},
+           "knee_ty": KNEE_TY, "samples": X.tolist(), "lengths": L.tolist(), "spans": spans,
+           "sweep_knee_flexion": sweep.tolist(),
+           "sweep_moment_arms": {c: a.tolist() for c, a in arms.items()},
+           "sweep_moment_arm_knee_fd_coupled": fd.tolist(), "seed": seed}
+    with open(out_path, "w") as f:
+        json.dump(out, f)
+
+
+if __name__ == "__main__":
+    main(sys.argv[1], sys.argv[2], *(int(a) for a in sys.argv[3:5]))
