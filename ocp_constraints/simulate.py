@@ -7,8 +7,9 @@ At every output sample the state is projected back onto the constraint manifold:
 positions by Gauss-Newton on the holonomic forms ``phi(q, t) = 0`` (and unit norm for
 quaternions), speeds by the kinetic-energy-metric projection onto ``G u + e = 0``. The
 size of each correction (the drift the integrator produced) is reported, not hidden.
-The work of every constraint, ``int -lambda_k e_k dt`` (eq. 27), is integrated as a
-quadrature alongside, so energy balances can be checked to integrator accuracy.
+The work of every constraint, ``int -lambda_k e_k dt`` (eq. 27), and of the applied
+loads other than gravity are integrated as quadratures alongside, so energy balances can
+be checked to integrator accuracy.
 """
 from __future__ import annotations
 
@@ -57,18 +58,22 @@ class _Integrators:
     def __init__(self, eqs: SystemEquations, opts: SimulationOptions):
         e = self.eqs = eqs
         self.opts = opts
-        t0, tau = ca.SX.sym("t0"), ca.SX.sym("tau")
+        # MX symbols that call the model's SX functions: works whether the forward
+        # dynamics are one SX graph or a sparse numerical solve (large systems).
+        t0, tau = ca.MX.sym("t0"), ca.MX.sym("tau")
+        q, u = ca.MX.sym("q", e.nq), ca.MX.sym("u", e.nu)
         t = t0 + tau
         # Inputs vary linearly over one output interval: w(tau) = w0 + tau (w1 - w0) / dt.
         n_in = e.inputs.numel()
-        w0, w1 = ca.SX.sym("w0", n_in), ca.SX.sym("w1", n_in)
+        w0, w1 = ca.MX.sym("w0", n_in), ca.MX.sym("w1", n_in)
         rate = (w1 - w0) / opts.dt
         w = w0 + tau * rate
-        udot, lam = e.forward_dynamics(e.q, e.u, t, w, rate)
-        qdot = ca.substitute(e.qdot, e.t, t)
-        econ = ca.substitute(ca.substitute(e.e, e.t, t), e.inputs, w)
-        power = -lam * econ if e.nc else ca.SX(0, 1)
-        self.dae = {"x": ca.vertcat(e.q, e.u), "p": ca.vertcat(t0, w0, w1), "t": tau,
+        udot, lam = e.forward_dynamics(q, u, t, w, rate)
+        qdot = ca.Function("qdot", [e.q, e.u, e.t], [e.qdot])(q, u, t)
+        econ = ca.Function("e", [e.q, e.t, e.inputs], [e.e])(q, t, w)
+        applied = ca.Function("applied_power", [e.q, e.u, e.t, e.inputs], [e.applied_power])(q, u, t, w)
+        power = ca.vertcat(-lam * econ if e.nc else ca.MX(0, 1), applied)
+        self.dae = {"x": ca.vertcat(q, u), "p": ca.vertcat(t0, w0, w1), "t": tau,
                     "ode": ca.vertcat(qdot, udot), "quad": power}
         self._cache: dict[int, ca.Function] = {}
 
@@ -133,7 +138,7 @@ def simulate(
     per_segment = 1 if n_in else max(1, int(round(opts.projection_interval / opts.dt)))
     traj = Trajectory(eqs)
     q, u = np.asarray(q0, float).copy(), np.asarray(u0, float).copy()
-    work = np.zeros(eqs.nc)
+    work = np.zeros(eqs.nc + 1)
 
     def input_at(t: float) -> np.ndarray:
         return np.zeros(n_in) if not n_in else np.asarray(inputs(t), float).reshape(n_in)
@@ -150,7 +155,8 @@ def simulate(
         w = input_at(times[k])
         rate = (input_at(times[k + 1]) - w) / opts.dt if k < n_steps else (w - input_at(times[k - 1])) / opts.dt
         udot, lam = eqs.forward_dynamics(q, u, times[k], w, rate)
-        traj.append(times[k], q, u, np.asarray(udot).ravel(), np.asarray(lam).ravel(), w, work, drift_q, drift_u)
+        traj.append(times[k], q, u, np.asarray(udot).ravel(), np.asarray(lam).ravel(), w, work[:-1], drift_q, drift_u,
+                    applied_work=work[-1])
 
     record(0, q, u, work)
     k = 0
@@ -167,7 +173,7 @@ def simulate(
                 continue
             raise SimulationError(_failure_message(eqs, q, times[k], times[k + 1], exc), partial=traj) from exc
         X = np.asarray(res["xf"]).reshape(eqs.nq + eqs.nu, n)
-        W = np.asarray(res["qf"]).reshape(eqs.nc, n)
+        W = np.asarray(res["qf"]).reshape(eqs.nc + 1, n)  # constraint works, then applied loads
         if not np.all(np.isfinite(X)):
             raise SimulationError(f"state became non-finite between t = {times[k]:g} and {times[k + n]:g}", partial=traj)
         for j in range(n - 1):

@@ -16,10 +16,11 @@ class Trajectory:
 
     def __init__(self, eqs: SystemEquations):
         self.eqs = eqs
-        self._rows: dict[str, list] = {k: [] for k in ("t", "q", "u", "udot", "lam", "inputs", "work", "drift_q", "drift_u")}
+        self._rows: dict[str, list] = {k: [] for k in ("t", "q", "u", "udot", "lam", "inputs", "work", "drift_q", "drift_u",
+                                                       "applied_work")}
 
-    def append(self, t, q, u, udot, lam, inputs, work, drift_q, drift_u) -> None:
-        for key, value in zip(self._rows, (t, q, u, udot, lam, inputs, work, drift_q, drift_u)):
+    def append(self, t, q, u, udot, lam, inputs, work, drift_q, drift_u, applied_work: float = 0.0) -> None:
+        for key, value in zip(self._rows, (t, q, u, udot, lam, inputs, work, drift_q, drift_u, applied_work)):
             self._rows[key].append(np.array(value, dtype=float, copy=True))
 
     def __len__(self) -> int:
@@ -52,6 +53,11 @@ class Trajectory:
     def work(self) -> np.ndarray:
         """Work done by each constraint's load since the start (J), ``int -lambda e dt``."""
         return self._array("work").reshape(len(self), self.eqs.nc)
+
+    @property
+    def applied_work(self) -> np.ndarray:
+        """Work done by the applied loads other than gravity since the start (J)."""
+        return self._array("applied_work")
 
     @property
     def max_projection(self) -> tuple[float, float]:

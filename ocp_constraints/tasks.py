@@ -29,19 +29,20 @@ DRIFT_METHOD = (
 
 
 def energy_balance(traj: Trajectory) -> dict[str, float | list]:
-    """Energy E = T + U against the work of the constraint loads (eq. 27).
+    """Energy E = T + U against the work of the constraint loads (eq. 27) and applied loads.
 
     ``relative_error`` is ``max |E(t) - E(0) - W(t)| / max(|E|, T)`` over the run.
     """
     T, U = traj.energy()
     E = T + U
-    W = traj.work.sum(axis=1)
+    W = traj.work.sum(axis=1) + traj.applied_work
     scale = max(float(np.abs(E).max()), float(T.max()), 1e-300)
     return {
         "initial": float(E[0]), "final": float(E[-1]),
-        "constraint_work": float(W[-1]),
+        "constraint_work": float(traj.work[-1].sum()),
+        "applied_work": float(traj.applied_work[-1]),
         "relative_error": float(np.abs(E - E[0] - W).max() / scale),
-        "series": {"kinetic": T, "potential": U, "total": E, "constraint_work": W},
+        "series": {"kinetic": T, "potential": U, "total": E, "work": W},
     }
 
 
@@ -95,7 +96,7 @@ def run_simulation(scene: Scene, scene_name: str, t_final: float | None = None, 
         series = energy["series"]
         inputs = {n: traj.sample(n) for n in scene.model.inputs}
         write_trajectory_results(out_path, traj, summary, inputs, plots,
-                                 {"E = T + U": series["total"], "constraint work": series["constraint_work"]})
+                                 {"E = T + U": series["total"], "work of constraints and applied loads": series["work"]})
     if error is not None:
         raise error
     return traj, summary
