@@ -2,7 +2,7 @@
 
 A constraint is written as a CasADi expression ``pi = f . v_C + h . omega + e``; the
 toolkit derives Lagrange's prescription ``F_c = lambda f`` at ``X_C``,
-``M_c = lambda h`` (O'Reilly & Srivastava's treatment, eq. 26), assembles the
+``M_c = lambda h`` (the paper's eq. 26), assembles the
 Newton-Euler equations and solves them.
 """
 from .model import Model
