@@ -29,9 +29,9 @@ def add_knee_parser(subparsers) -> None:
     k.add_argument("--grf", required=True, help="ground reaction forces")
     k.add_argument("--measured", default=None, help="measured contact forces (KCF .csv/.mat: PM, AM, AL, PL in lbf)")
     k.add_argument("--method", choices=("static", "collocation"), default="static")
-    k.add_argument("--muscle-model", choices=MUSCLE_MODELS, default="hill",
-                   help="hill: De Groote et al. 2016 force-length-velocity curves, rigid tendon (default); "
-                        "ideal: F = a F0")
+    k.add_argument("--muscle-model", choices=MUSCLE_MODELS, default="ideal",
+                   help="ideal: F = a F0 (default); hill: De Groote et al. 2016 force-length-velocity curves "
+                        "with a rigid tendon (experimental: its passive quadriceps forces are unphysical in swing)")
     k.add_argument("--out", required=True, help="folder for summary.json, loads.csv and plots")
     k.add_argument("--no-plots", action="store_true")
     k.set_defaults(handler=cli_knee)
@@ -86,11 +86,13 @@ def compare(t, predicted: dict, measured, bw: float) -> dict:
 MUSCLE_MODELS = ("hill", "ideal")
 
 
-def run_knee(model, motion, grf, measured=None, muscles_on: bool = True, muscle_model: str = "hill"):
+def run_knee(model, motion, grf, measured=None, muscles_on: bool = True, muscle_model: str = "ideal"):
     """Gait cycle -> inverse dynamics -> static optimisation (-> comparison). Returns a dict.
 
-    ``muscle_model``: ``"hill"`` (De Groote et al. 2016 force-length-velocity curves, rigid
-    tendon, :mod:`.knee_hill`) or ``"ideal"`` (``F = a F0``).
+    ``muscle_model``: ``"ideal"`` (``F = a F0``, the default) or ``"hill"`` (De Groote et
+    al. 2016 force-length-velocity curves, rigid tendon, :mod:`.knee_hill`; experimental: with
+    a rigid tendon the quadriceps' passive forces reach 0.5-1 kN at zero activation in swing,
+    which a subject who bends the knee in swing cannot have).
     """
     if muscle_model not in MUSCLE_MODELS:
         raise KneeError(f"unknown muscle model '{muscle_model}' (use one of {', '.join(MUSCLE_MODELS)})")
@@ -122,7 +124,7 @@ def run_knee(model, motion, grf, measured=None, muscles_on: bool = True, muscle_
         L, V = muscle_kinematics(gait, paths)
         l_opt, l_s, alpha0 = (np.array([getattr(params[m], k) for m in paths.muscles]) for k in
                               ("optimal_fiber_length", "tendon_slack_length", "pennation_angle"))
-        L_ref = np.asarray(paths.length(paths.q_vector({}))).ravel()
+        L_ref = np.asarray(paths.unit_length(paths.q_vector({}))).ravel()
         factors, l_opt, l_s = scale_lengths(L_ref, l_opt, l_s, alpha0)
         hill = hill_forces(L, V, F0, l_opt, l_s, alpha0)
         hill.scale = dict(zip(paths.muscles, factors.tolist()))

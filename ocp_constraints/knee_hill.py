@@ -14,17 +14,27 @@ Parameters, per muscle, from the model file (``Thelen2003Muscle`` of the JW mode
 alpha_0. Maximal shortening velocity ``v_max = 10 l_opt / s`` (the usual value; the
 Thelen2003Muscle default ``max_contraction_velocity = 10``).
 
+Muscle-tendon units. The fibre kinematics use the length of the muscle-tendon *unit*
+the parameters describe (:attr:`~ocp_constraints.knee_muscles.MusclePaths.unit_length`):
+for the quadriceps of the JW model that is the path ending on the patella (the model's
+``<name>_withreallength`` twins), not the force path that runs on over the patellar
+ligament to the tibia (about 0.1 m longer; it gives the moment arms only). Earlier
+versions used the force path here, which made the quadriceps look about 0.1 m too
+long and inflated their length factors below to 1.26-1.42.
+
 Scaling of the length parameters. The JW model's right-leg muscles (``Schutte1993Muscle``)
-carry generic ``optimal_fiber_length`` and ``tendon_slack_length`` that do not match its
-scaled paths: with a rigid tendon the vasti would work at 1.7-2.3 l_opt, rectus femoris at
-2.2-3.1, soleus and gastrocnemii near 2 (their path runs to the tibia, i.e. includes the
-patellar ligament, for the quadriceps), where the curves give no active force and an
-enormous passive one. As OpenSim's Scale tool does when it scales a model, both lengths of
-muscle m are multiplied by one factor ``k_m = L_MT(q_ref) / (l_opt cos(alpha_0) + l_s)``, so
-that at the reference pose ``q_ref`` (all joint angles zero, upright: the pose of the
-generic model's definition) the fibre is at its optimal length with the pennation
-``alpha_0``; the ratio ``l_opt / l_s`` of the model is kept (:func:`scale_lengths`). The
-factors are reported. This uses the model's own geometry only.
+carry generic ``optimal_fiber_length`` and ``tendon_slack_length`` that do not all match
+its scaled paths: with a rigid tendon and the model's own values, soleus and gastrocnemii
+would work near 1.9 l_opt upright, the peronei near 2.1 (the quadriceps, on their
+units, at 0.84 (vasti) and 1.2 (rectus femoris)). As OpenSim's Scale tool does when it
+scales a model, both lengths of muscle m are multiplied by one factor
+``k_m = L_MT(q_ref) / (l_opt cos(alpha_0) + l_s)``, so that at the reference pose ``q_ref``
+(all joint angles zero, upright) the fibre is at its optimal length with the pennation
+``alpha_0``; the ratio ``l_opt / l_s`` of the model is kept (:func:`scale_lengths`). This
+is an assumption (stated in ``summary.json`` with the factors), not a value of the model
+or the literature. With a rigid tendon it puts the vasti at 1.5 l_opt and the rectus
+femoris at 1.6 l_opt at the knee flexion of early swing, where the passive curve gives
+0.5-1 F0 each: the cause of the large swing-phase contact forces of the Hill model.
 
 Kinematics (rigid tendon, constant-thickness pennation): with the muscle-tendon length
 ``L_MT(q)`` and its rate ``v_MT = dL_MT/dt = -sum_c r_c qdot_c`` from the fitted paths

@@ -83,6 +83,27 @@ def basis(x, E: np.ndarray):
     return np.prod(x[:, None, :] ** E[None, :, :], axis=2)
 
 
+def _fit_length(X, y, spans, names, centre, half, n_fit) -> dict:
+    """Least-squares fit of one sampled length ``y`` over the coordinates in ``spans``."""
+    prim = [c for c in PRIMARY if c in spans]
+    sec = [c for c in SECONDARY if c in spans]
+    cols = [names.index(c) for c in prim + sec]
+    E = exponents(len(prim), len(sec))
+    Z = (X[:, cols] - centre[cols]) / half[cols]
+    B = basis(Z, E)
+    keep = np.arange(n_fit)
+    for _ in range(3):    # drop OpenSim's wrapping glitches (isolated jumps of the path), refit
+        coef, *_ = np.linalg.lstsq(B[keep], y[keep], rcond=None)
+        res = np.abs(B[:n_fit] @ coef - y[:n_fit])
+        keep = np.flatnonzero(res <= max(6 * np.median(res), 1e-3))
+    err = B[n_fit:] @ coef - y[n_fit:]
+    good = np.abs(err) <= max(6 * np.median(np.abs(err)), 1e-3)
+    return {"coordinates": prim + sec, "exponents": E.tolist(), "coefficients": coef.tolist(),
+            "centre": centre[cols].tolist(), "half_range": half[cols].tolist(),
+            "holdout_max_length_error_m": float(np.abs(err[good]).max()),
+            "holdout_outliers": int((~good).sum()), "fit_outliers_dropped": int(n_fit - len(keep))}
+
+
 def fit_paths(raw: dict) -> dict:
     """Least-squares fits of OpenSim's sampled lengths (``raw`` from the OpenSim script)."""
     names = raw["coordinates"]
@@ -90,27 +111,25 @@ def fit_paths(raw: dict) -> dict:
     lo, hi = X.min(0), X.max(0)
     centre, half = (lo + hi) / 2, np.maximum((hi - lo) / 2, 1e-12)
     n_fit = int(0.8 * len(X))                      # last 20 % held out for the accuracy check
-    fits = {}
-    for i, m in enumerate(raw["muscles"]):
-        spans = raw["spans"][m]
-        prim = [c for c in PRIMARY if c in spans]
-        sec = [c for c in SECONDARY if c in spans]
-        cols = [names.index(c) for c in prim + sec]
-        E = exponents(len(prim), len(sec))
-        Z = (X[:, cols] - centre[cols]) / half[cols]
-        B = basis(Z, E)
-        keep = np.arange(n_fit)
-        for _ in range(3):    # drop OpenSim's wrapping glitches (isolated jumps of the path), refit
-            coef, *_ = np.linalg.lstsq(B[keep], L[keep, i], rcond=None)
-            res = np.abs(B[:n_fit] @ coef - L[:n_fit, i])
-            keep = np.flatnonzero(res <= max(6 * np.median(res), 1e-3))
-        err = B[n_fit:] @ coef - L[n_fit:, i]
-        good = np.abs(err) <= max(6 * np.median(np.abs(err)), 1e-3)
-        fits[m] = {"coordinates": prim + sec, "exponents": E.tolist(), "coefficients": coef.tolist(),
-                   "centre": centre[cols].tolist(), "half_range": half[cols].tolist(),
-                   "holdout_max_length_error_m": float(np.abs(err[good]).max()),
-                   "holdout_outliers": int((~good).sum()), "fit_outliers_dropped": int(n_fit - len(keep))}
-    return fits
+    return {m: _fit_length(X, L[:, i], raw["spans"][m], names, centre, half, n_fit)
+            for i, m in enumerate(raw["muscles"])}
+
+
+def fit_units(raw: dict) -> dict:
+    """Fits of the muscle-tendon-unit lengths of the muscles whose force path is longer (quadriceps).
+
+    ``raw["units"]`` (from the OpenSim script): muscles whose path runs on over the
+    patella to the tibia; ``raw["unit_lengths"]`` the lengths of their twins
+    ``<name>_withreallength`` ending on the patella, the muscle-tendon unit that the
+    model's ``optimal_fiber_length`` and ``tendon_slack_length`` describe.
+    """
+    names = raw["coordinates"]
+    X, L = np.asarray(raw["samples"]), np.asarray(raw.get("unit_lengths", np.zeros((0, 0))))
+    lo, hi = X.min(0), X.max(0)
+    centre, half = (lo + hi) / 2, np.maximum((hi - lo) / 2, 1e-12)
+    n_fit = int(0.8 * len(X))
+    return {m: _fit_length(X, L[:, i], raw["unit_spans"][m], names, centre, half, n_fit)
+            for i, m in enumerate(raw.get("units", []))}
 
 
 @dataclass
@@ -145,9 +164,18 @@ def muscle_parameters(osim_path, names: list[str]) -> dict[str, MuscleParameters
 
 
 class MusclePaths:
-    """Fitted muscle-tendon lengths ``L(q)`` (m) and moment arms ``-dL/dq`` as CasADi functions.
+    """Fitted path lengths ``L(q)`` (m) and moment arms ``-dL/dq`` as CasADi functions.
 
     ``coordinates`` is :data:`PRIMARY` + :data:`SECONDARY` (rad, m; knee_ty absolute, m).
+
+    Two lengths per muscle. ``length`` is the path along which the tension acts (its
+    gradient gives the moment arms); ``unit_length`` is the length of the muscle-tendon
+    unit, the one the model's ``optimal_fiber_length`` and ``tendon_slack_length`` refer
+    to (fibre kinematics of the Hill model). They differ for the quadriceps of the JW
+    model (``units``): their force paths run over the patella to the tibia (the patellar
+    ligament is part of the path, so that the knee moment arm is right), while their
+    muscle-tendon units end on the patella (the model's ``<name>_withreallength`` twins,
+    about 0.1 m shorter). For every other muscle the two are the same.
     """
 
     def __init__(self, path=DATA_FILE):
@@ -159,16 +187,21 @@ class MusclePaths:
         self.muscles: list[str] = list(data["fits"])
         self.coordinates = PRIMARY + SECONDARY
         q = ca.SX.sym("q", len(self.coordinates))
-        Ls = []
-        for m in self.muscles:
-            f = data["fits"][m]
+
+        def fitted(f):
             idx = [self.coordinates.index(c) for c in f["coordinates"]]
             z = (q[idx] - ca.DM(f["centre"])) / ca.DM(f["half_range"])
-            Ls.append(ca.dot(ca.DM(f["coefficients"]), basis(z, np.asarray(f["exponents"], dtype=int))))
-        L = ca.vertcat(*Ls)
+            return ca.dot(ca.DM(f["coefficients"]), basis(z, np.asarray(f["exponents"], dtype=int)))
+
+        L = ca.vertcat(*[fitted(data["fits"][m]) for m in self.muscles])
+        units = data.get("unit_fits", {})
+        self.units: list[str] = [m for m in self.muscles if m in units]
+        U = ca.vertcat(*[fitted(units[m]) if m in units else L[i] for i, m in enumerate(self.muscles)])
         R = -ca.jacobian(L, q)
         self.length = ca.Function("muscle_length", [q], [L], ["q"], ["L"])
         self.moment_arms = ca.Function("moment_arms", [q], [R], ["q"], ["R"])
+        self.unit_length = ca.Function("unit_length", [q], [U], ["q"], ["L"])
+        self.unit_jacobian = ca.Function("unit_jacobian", [q], [ca.jacobian(U, q)], ["q"], ["J"])
 
     def crossing(self, coordinate: str) -> list[str]:
         """Muscles whose path spans ``coordinate``."""

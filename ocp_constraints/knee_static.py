@@ -94,15 +94,20 @@ def frame_data(gait, paths: MusclePaths, contact_A: ca.Function):
 
 
 def muscle_kinematics(gait, paths: MusclePaths) -> tuple[np.ndarray, np.ndarray]:
-    """Muscle-tendon lengths ``L`` (m) and rates ``dL/dt = -R qdot`` (m/s), frames x muscles."""
+    """Muscle-tendon-unit lengths ``L`` (m) and rates ``dL/dt`` (m/s), frames x muscles.
+
+    The lengths of the units the Hill parameters describe (:attr:`MusclePaths.unit_length`:
+    for the quadriceps the path ending on the patella, not the force path over the
+    patellar ligament to the tibia); for the other muscles ``dL/dt = -R qdot``.
+    """
     names = gait.coordinate_names
     P, Pd = gait.states["p"], gait.states["pdot"]
     qv = np.column_stack([P[:, names.index(c)] for c in paths.coordinates])
     qd = np.column_stack([Pd[:, names.index(c)] for c in paths.coordinates])
     N = len(gait.t)
-    L = np.asarray(paths.length.map(N)(qv.T)).T
-    R = np.asarray(paths.moment_arms.map(N)(qv.T)).reshape(len(paths.muscles), N, -1).transpose(1, 0, 2)
-    return L, -np.einsum("nmc,nc->nm", R, qd)
+    L = np.asarray(paths.unit_length.map(N)(qv.T)).T
+    Jl = np.asarray(paths.unit_jacobian.map(N)(qv.T)).reshape(len(paths.muscles), N, -1).transpose(1, 0, 2)
+    return L, np.einsum("nmc,nc->nm", Jl, qd)
 
 
 def solve_static(t, Qc, R, A, F0, muscles_on: bool = True, contact_nonnegative: bool = True,

@@ -5,6 +5,13 @@ Loads the JW model, samples muscle-tendon lengths of the right-leg muscles over 
 range of motion (OpenSim's own path computation: path points, conditional points and
 wrap objects) and sweeps OpenSim's moment arms over knee angles.
 
+The model's quadriceps paths (``recfem``, ``vasint``, ``vaslat``, ``vasmed``) run over
+the patella *to the tibia*: they carry the force (their moment arms include the patellar
+ligament). Their muscle-tendon units, to which ``optimal_fiber_length`` and
+``tendon_slack_length`` belong, end on the patella: the model keeps them as the twins
+``<name>_withreallength`` (same origin and parameters, no patellar-ligament segment). The
+twins' lengths are sampled at the same poses (``unit_lengths``, ``unit_spans``).
+
 Usage: python knee_muscle_paths_opensim.py MODEL.osim OUT.json [n_samples] [seed]
 """
 import json
@@ -19,7 +26,8 @@ PRIMARY = {  # coordinate: sampled range (rad); gait range of ngait_og5 plus a m
 SECONDARY = {"knee_adduction": 0.05, "knee_rotation": 0.05, "knee_tx": 0.003, "knee_ty": 0.003, "knee_tz": 0.003}
 KNEE_TY = 0.042            # the JW model's default knee_ty (m); IK holds it there
 PATELLA = ("patfem_flexion", "knee_flexion", 1.57)   # CoordinateCouplerConstraint patfem_flexion_con
-SKIP = ("_withreallength",)   # duplicates of recfem/vasint/vaslat/vasmed kept for length bookkeeping
+UNIT = "_withreallength"    # recfem/vasint/vaslat/vasmed ending on the patella: their muscle-tendon units (below)
+SKIP = (UNIT,)
 TRUNK = ("ercspn", "intobl", "extobl")
 
 
@@ -36,6 +44,7 @@ def main(model_path, out_path, n=4000, seed=7):
         if name.endswith("_l") or "_l_" in name or name.startswith(TRUNK) or any(s in name for s in SKIP):
             continue
         muscles.append(name)
+    units = [m for m in muscles if ms.contains(m + UNIT)]
     dep, indep, offset = PATELLA
 
     def pose(values):
@@ -51,6 +60,9 @@ def main(model_path, out_path, n=4000, seed=7):
     def lengths():
         return [ms.get(m).getLength(state) for m in muscles]
 
+    def unit_lengths():
+        return [ms.get(m + UNIT).getLength(state) for m in units]
+
     rng = np.random.default_rng(seed)
     names = list(PRIMARY) + list(SECONDARY)
     X = np.zeros((n, len(names)))
@@ -61,15 +73,18 @@ def main(model_path, out_path, n=4000, seed=7):
         X[:, len(PRIMARY) + j] = np.where(np.arange(n) % 2 == 0, 0.0, rng.uniform(-1, 1, n) * SECONDARY[c])
     X[:, names.index("knee_ty")] += KNEE_TY
     L = np.zeros((n, len(muscles)))
+    LU = np.zeros((n, len(units)))
     for k in range(n):
         pose(dict(zip(names, X[k])))
         L[k] = lengths()
+        LU[k] = unit_lengths()
     # which coordinates each muscle spans: finite differences at a few poses
     spans = {m: [] for m in muscles}
+    unit_spans = {m: [] for m in units}
     for k in range(6):
         base = dict(zip(names, X[2 * k]))
         pose(base)
-        L0 = np.array(lengths())
+        L0, U0 = np.array(lengths()), np.array(unit_lengths())
         for c in names:
             h = 0.01 if c in PRIMARY or c in ("knee_adduction", "knee_rotation") else 0.001
             pose({**base, c: base[c] + h})
@@ -77,6 +92,10 @@ def main(model_path, out_path, n=4000, seed=7):
             for i, m in enumerate(muscles):
                 if d[i] > 1e-7 and c not in spans[m]:
                     spans[m].append(c)
+            d = np.abs(np.array(unit_lengths()) - U0)
+            for i, m in enumerate(units):
+                if d[i] > 1e-7 and c not in unit_spans[m]:
+                    unit_spans[m].append(c)
     # moment-arm sweep: knee angles, other coordinates at 0 (knee_ty at its default)
     sweep = np.radians(np.arange(-75.0, 10.01, 5.0))
     arms = {c: np.zeros((len(sweep), len(muscles))) for c in ("knee_flexion", "hip_flexion", "ankle_angle")}
@@ -95,7 +114,8 @@ def main(model_path, out_path, n=4000, seed=7):
            "knee_ty": KNEE_TY, "samples": X.tolist(), "lengths": L.tolist(), "spans": spans,
            "sweep_knee_flexion": sweep.tolist(),
            "sweep_moment_arms": {c: a.tolist() for c, a in arms.items()},
-           "sweep_moment_arm_knee_fd_coupled": fd.tolist(), "seed": seed}
+           "sweep_moment_arm_knee_fd_coupled": fd.tolist(), "seed": seed,
+           "units": units, "unit_suffix": UNIT, "unit_lengths": LU.tolist(), "unit_spans": unit_spans}
     with open(out_path, "w") as f:
         json.dump(out, f)
 
