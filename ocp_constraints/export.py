@@ -28,15 +28,11 @@ both with the CasADi evaluation on random states, and runs the example program.
 """
 from __future__ import annotations
 
-import ctypes
 import json
 import os
 import re
-import shlex
 import shutil
-import subprocess
 import tempfile
-import time
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -44,28 +40,25 @@ import casadi as ca
 import numpy as np
 
 from .equations import SystemEquations
-from .errors import OcpConstraintsError
+from .export_c_text import (
+    C_FLAGS, _cmakelists, _example, _header, _kernel_size, _makefile, _mark_unused_parameters, _wrappers,
+)
+from .export_verify import (
+    TOLERANCE, CompilerError, CompilerNotFoundError, ExportError, RoundTripError, RoundTripReport, build_export,
+    check_example_output, find_compiler, random_states, relative_error, run_compiler, verify_export,
+)
 from .rotations import EulerSequence
 
-C_FLAGS = ("-Wall", "-Wextra", "-Werror", "-O2")
+__all__ = [
+    "C_FLAGS", "MANIFEST", "TOLERANCE",
+    "ExportError", "CompilerNotFoundError", "CompilerError", "RoundTripError",
+    "Entry", "Block", "ExportedFunction", "ExportReport", "RoundTripReport",
+    "export_model_c", "export_c", "random_states",
+    "find_compiler", "run_compiler", "build_export", "relative_error", "check_example_output", "verify_export",
+    "add_export_parser", "cli_export_c", "cli_bench_export",
+]
+
 MANIFEST = "export.json"
-TOLERANCE = 1e-12
-
-
-class ExportError(OcpConstraintsError):
-    """The C export cannot be written, built or verified."""
-
-
-class CompilerNotFoundError(ExportError):
-    """No C compiler: ``$CC`` names a program that does not exist, or none is installed."""
-
-
-class CompilerError(ExportError):
-    """The C compiler failed; the message includes the compiler's own output."""
-
-
-class RoundTripError(ExportError):
-    """The compiled code disagrees with the CasADi evaluation."""
 
 
 # -- layouts ----------------------------------------------------------------------------
@@ -319,186 +312,6 @@ def _build_functions(eqs: SystemEquations, prefix: str) -> tuple[dict[str, Block
     return blocks, functions
 
 
-# -- C text -----------------------------------------------------------------------------
-def _mark_unused_parameters(code: str) -> str:
-    """Add ``(void)p;`` for each parameter of each multi-line function definition.
-
-    CasADi's generated functions take ``iw``, ``w`` and ``mem`` whether they use them or
-    not, which ``-Wextra`` reports as unused parameters.
-    """
-    pattern = re.compile(r"^((?:static |CASADI_SYMBOL_EXPORT )[^;{}\n]*?\w+\(([^()]*)\) \{)$", re.M)
-
-    def mark(m: re.Match) -> str:
-        names = [re.findall(r"(\w+)\s*$", p)[0] for p in m.group(2).split(",") if p.strip() not in ("", "void")]
-        return m.group(1) + ("\n  " + " ".join(f"(void){n};" for n in names) if names else "")
-
-    return pattern.sub(mark, code)
-
-
-def _macros(prefix: str, block: Block) -> list[str]:
-    """Index macro per entry, ``<PREFIX>_<BLOCK>_<KEY>``; made unique if two keys collide."""
-    out: list[str] = []
-    for e in block.entries:
-        m = re.sub(r"\W", "_", f"{prefix}_{block.name}_{e.key}").upper()
-        out.append(m if m not in out else f"{m}_{len(out)}")
-    return out
-
-
-def _c_params(report: ExportReport, fn: ExportedFunction) -> str:
-    P = report.prefix.upper()
-    out = []
-    for b in fn.inputs:
-        out.append("double t" if b == "t" else f"const double {b}[{P}_{b.upper()}_SIZE]")
-    out += [f"double {b}[{P}_{b.upper()}_SIZE]" for b in fn.outputs]
-    return ", ".join(out)
-
-
-def _header(report: ExportReport, eqs: SystemEquations) -> str:
-    p, P = report.prefix, report.prefix.upper()
-    params = ", ".join(f"{k} = {float(v)!r}" for k, v in report.parameters.items()) or "none"
-    L = [f"/* {p}_constraints.h: constraint functions of the scene '{report.scene}', exported by ocp_constraints.",
-         " *",
-         " * Generated C (CasADi " + ca.__version__ + "); build with the Makefile or CMakeLists.txt beside this file.",
-         f" * Scene parameters (SI units, compiled in): {params}.",
-         " *",
-         " * Conventions: vectors are components in the fixed right-handed basis E1, E2, E3; body",
-         " * basis e_i = Q E_i. Speeds are u = (vbar, omega) per body. A scalar constraint reads",
-         " * pi = f . v_C + h . omega + e = 0 (v_C: velocity of the joint's material point X_C), and",
-         " * its multiplier lambda gives F_c = lambda f acting at X_C and M_c = lambda h (paper eq. 26).",
-         " * Units of lambda assume f dimensionless for a constraint with a force part (pi in m/s,",
-         " * lambda in N) and h dimensionless otherwise (pi in rad/s, lambda in N m).",
-         " *",
-         " * Every function takes dense double arrays laid out as documented below, returns 0 on",
-         " * success, keeps no state and is thread-safe. Arguments a function does not depend on",
-         " * (t, inputs) are not part of its signature.",
-         " */",
-         f"#ifndef {P}_CONSTRAINTS_H", f"#define {P}_CONSTRAINTS_H", "",
-         "#ifdef __cplusplus", 'extern "C" {', "#endif", "",
-         f'#define {P}_SCENE "{report.scene}"', ""]
-    for b in report.blocks.values():
-        if b.name == "t":
-            continue
-        L.append(f"/* {b.name}[{b.size}]: {b.title} */")
-        L.append(f"#define {P}_{b.name.upper()}_SIZE {b.size}")
-        macros = _macros(p, b)
-        width = max(len(m) for m in macros)
-        for i, (m, e) in enumerate(zip(macros, b.entries)):
-            L.append(f"#define {m:<{width}} {i:>3}  /* {e.name} [{e.unit}]: {e.description} */")
-        L.append(f"extern const char* const {p}_{b.name}_names[{P}_{b.name.upper()}_SIZE];")
-        L.append("")
-    for fn in report.functions:
-        L.append(f"/* {fn.name}: {fn.summary}.")
-        L.append(f" *   inputs: {', '.join(fn.inputs)}; outputs: {', '.join(fn.outputs)}.")
-        missing = [x for x in ("t", "inputs") if x in report.blocks and x not in fn.inputs]
-        if missing:
-            L.append(f" *   Not an argument (does not depend on it): {', '.join(missing)}.")
-        L.append(f" *   Cost: {fn.n_operations} arithmetic operations ({fn.n_instructions} CasADi instructions). */")
-        L.append(f"int {fn.name}({_c_params(report, fn)});")
-        L.append("")
-    L += ["#ifdef __cplusplus", "}", "#endif", f"#endif /* {P}_CONSTRAINTS_H */", ""]
-    return "\n".join(L)
-
-
-def _c_string(s: str) -> str:
-    return '"' + s.replace("\\", "\\\\").replace('"', '\\"') + '"'
-
-
-def _wrappers(report: ExportReport) -> str:
-    p, P = report.prefix, report.prefix.upper()
-    L = [f"/* {p}_constraints.c: the plain C API of {p}_constraints.h over the CasADi functions in",
-         f" * {p}_casadi.c (work arrays on the stack: reentrant). Generated by ocp_constraints. */",
-         f'#include "{p}_casadi.h"', f'#include "{p}_constraints.h"', ""]
-    for b in report.blocks.values():
-        if b.name != "t":
-            names = ", ".join(_c_string(e.name) for e in b.entries)
-            L.append(f"const char* const {p}_{b.name}_names[{P}_{b.name.upper()}_SIZE] = {{{names}}};")
-    L.append("")
-    for fn in report.functions:
-        c = fn.casadi_name
-        L += [f"int {fn.name}({_c_params(report, fn)}) {{",
-              f"  const casadi_real* arg[{c}_SZ_ARG + 1];", f"  casadi_real* res[{c}_SZ_RES + 1];",
-              f"  casadi_int iw[{c}_SZ_IW + 1];", f"  casadi_real w[{c}_SZ_W + 1];"]
-        L += [f"  arg[{i}] = {'&t' if b == 't' else b};" for i, b in enumerate(fn.inputs)]
-        L += [f"  res[{i}] = {b};" for i, b in enumerate(fn.outputs)]
-        L += [f"  return {c}(arg, res, iw, w, 0);", "}", ""]
-    return "\n".join(L)
-
-
-def _c_array(values, entries: list[Entry]) -> str:
-    return "\n".join(f"  {float(v)!r},  /* {e.name} [{e.unit}] */" for v, e in zip(np.ravel(values), entries))
-
-
-def _example(report: ExportReport) -> str:
-    p, P = report.prefix, report.prefix.upper()
-    L = [f"/* {p}_example.c: calls each function of {p}_constraints.h on a sample state and prints",
-         " * one line per output entry: <function> <output> <index> <name> <value>.",
-         " * Sample: the scene's consistent initial state at t = 0; udot from the forward dynamics;",
-         " * the loads use the multipliers computed here. Generated by ocp_constraints. */",
-         "#include <stdio.h>", f'#include "{p}_constraints.h"', ""]
-    used = {b for fn in report.functions for b in fn.inputs}  # an unused static const is a warning
-    for b in ("q", "u", "udot", "inputs"):
-        if b in used:
-            L += [f"static const double {b}[{P}_{b.upper()}_SIZE] = {{",
-                  _c_array(report.sample[b], report.blocks[b].entries), "};"]
-    if "t" in used:
-        L.append(f"static const double t = {float(np.ravel(report.sample['t'])[0])!r};  /* [s] */")
-    L += ["",
-          "static void print_block(const char* function, const char* output, const double* v, int n,",
-          "                        const char* const* names) {",
-          "  int i;",
-          "  for (i = 0; i < n; ++i) printf(\"%s %s %d %s %.17g\\n\", function, output, i, names[i], v[i]);",
-          "}", "", "int main(void) {"]
-    outputs = {b for fn in report.functions for b in fn.outputs}
-    L += [f"  double {b}[{P}_{b.upper()}_SIZE];" for b in report.blocks if b in outputs]
-    L.append(f'  printf("# scene %s\\n", {P}_SCENE);')
-    order = sorted(report.functions, key=lambda f: f.name.endswith("_loads"))  # loads use lam
-    for fn in order:
-        call_args = list(fn.inputs) + list(fn.outputs)
-        L.append(f"  if ({fn.name}({', '.join(call_args)}) != 0) {{")
-        L.append(f'    fprintf(stderr, "{fn.name} failed\\n");')
-        L += ["    return 1;", "  }"]
-        for b in fn.outputs:
-            L.append(f'  print_block("{fn.name}", "{b}", {b}, {P}_{b.upper()}_SIZE, {p}_{b}_names);')
-    L += ["  return 0;", "}", ""]
-    return "\n".join(L)
-
-
-def _makefile(report: ExportReport) -> str:
-    p, lib = report.prefix, report.library_name
-    return "\n".join([
-        f"# Builds {lib} and {p}_example with the system C compiler (generated by ocp_constraints).",
-        "#   make          build both", "#   make run      build and run the example", "",
-        f"CFLAGS = {' '.join(C_FLAGS)}", "LDLIBS = -lm", "",
-        f"all: {lib} {p}_example", "",
-        f"{lib}: {p}_casadi.c {p}_constraints.c {p}_casadi.h {p}_constraints.h",
-        f"\t$(CC) $(CFLAGS) -fPIC -shared -o $@ {p}_casadi.c {p}_constraints.c $(LDLIBS)", "",
-        f"{p}_example: {p}_example.c {p}_constraints.h {lib}",
-        f"\t$(CC) $(CFLAGS) -o $@ {p}_example.c -L. -l{p}_constraints -Wl,-rpath,'$$ORIGIN' $(LDLIBS)", "",
-        f"run: {p}_example", f"\t./{p}_example", "",
-        "clean:", f"\trm -f {lib} {p}_example", "", ".PHONY: all run clean", ""])
-
-
-def _cmakelists(report: ExportReport) -> str:
-    p = report.prefix
-    flags = " ".join(C_FLAGS)
-    return "\n".join([
-        "# Builds the shared library and the example (generated by ocp_constraints).",
-        "cmake_minimum_required(VERSION 3.10)", f"project({p}_constraints C)", "",
-        f"add_library({p}_constraints SHARED {p}_casadi.c {p}_constraints.c)",
-        f"add_executable({p}_example {p}_example.c)",
-        f"target_link_libraries({p}_example PRIVATE {p}_constraints)",
-        'if(CMAKE_C_COMPILER_ID MATCHES "GNU|Clang")',
-        f"  target_compile_options({p}_constraints PRIVATE {flags})",
-        f"  target_compile_options({p}_example PRIVATE {flags})", "endif()",
-        "if(UNIX)", f"  target_link_libraries({p}_constraints PRIVATE m)", "endif()", ""])
-
-
-def _kernel_size(code: str, casadi_name: str) -> tuple[int, int]:
-    m = re.search(rf"/\* {re.escape(casadi_name)}:.*?\*/\nstatic int \w+\(.*?\n\}}\n", code, re.S)
-    text = m.group(0) if m else ""
-    return len(text.encode()), text.count("\n")
-
-
 # -- writing ----------------------------------------------------------------------------
 def _staging_folder(out_dir: str | Path) -> tuple[Path, Path]:
     """``(final, temporary)``: a fresh temporary folder beside ``out_dir``."""
@@ -553,31 +366,6 @@ def _write_folder(report: ExportReport, eqs: SystemEquations, folder: Path) -> N
         (folder / name).write_text(text)
     report.files = {f.name: (f.stat().st_size, f.read_text().count("\n")) for f in sorted(folder.iterdir())}
     (folder / MANIFEST).write_text(json.dumps(report.to_dict(), indent=2) + "\n")
-
-
-def random_states(report_or_eqs, n: int, seed: int = 0) -> dict[str, np.ndarray]:
-    """``n`` random samples per input block (rows are samples), away from Euler singularities.
-
-    Positions and speeds standard normal, Euler angles uniform with the middle angle at
-    least 0.3 rad from its singularity, unit quaternions uniform, ``t`` in [0, 10] s.
-    """
-    eqs = report_or_eqs if isinstance(report_or_eqs, SystemEquations) else report_or_eqs.eqs
-    rng = np.random.default_rng(seed)
-    q = []
-    for b in eqs.bodies:
-        q.append(rng.standard_normal((n, 3)))
-        if isinstance(b.rotation, EulerSequence):
-            lo, hi = (0.3, np.pi - 0.3) if b.rotation.is_proper else (-np.pi / 2 + 0.3, np.pi / 2 - 0.3)
-            mid = rng.uniform(lo, hi, n)
-            q.append(np.column_stack([rng.uniform(-np.pi, np.pi, n), mid, rng.uniform(-np.pi, np.pi, n)]))
-        else:
-            r = rng.standard_normal((n, 4))
-            q.append(r / np.linalg.norm(r, axis=1, keepdims=True))
-    out = {"q": np.hstack(q), "u": rng.standard_normal((n, eqs.nu)), "udot": rng.standard_normal((n, eqs.nu)),
-           "t": rng.uniform(0.0, 10.0, (n, 1)), "lam": rng.standard_normal((n, eqs.nc))}
-    if eqs.inputs.numel():
-        out["inputs"] = rng.standard_normal((n, eqs.inputs.numel()))
-    return out
 
 
 def _forward_accelerations(eqs: SystemEquations, q, u, t: float, inputs) -> np.ndarray:
@@ -668,194 +456,6 @@ def export_c(scene_name_or_path: str, out_dir: str | Path, params: dict | None =
         sample["inputs"] = w0
     return export_model_c(eqs, out_dir, scene.model.name, sample, parameters=scene.model.parameters,
                           verify=verify, n_states=n_states, seed=seed)
-
-
-# -- compiling and the round trip ---------------------------------------------------------
-def find_compiler(cc: str | None = None) -> list[str]:
-    """The C compiler command: ``cc`` if given, else ``$CC``, else ``cc``, ``gcc`` or ``clang``."""
-    raw = cc if cc is not None else os.environ.get("CC", "").strip() or None
-    if raw is not None:
-        argv = shlex.split(raw)
-        exe = shutil.which(argv[0]) if argv else None
-        if exe is None:
-            source = "given" if cc is not None else "from $CC"
-            raise CompilerNotFoundError(f"C compiler '{raw}' ({source}) not found: no such program. "
-                                        "Install gcc or clang, or point $CC to one")
-        return [exe, *argv[1:]]
-    for name in ("cc", "gcc", "clang"):
-        exe = shutil.which(name)
-        if exe:
-            return [exe]
-    raise CompilerNotFoundError("no C compiler found (tried cc, gcc, clang): install one or set $CC")
-
-
-def run_compiler(cmd: list[str], what: str) -> str:
-    """Run a compiler command; return its (warning) output, raise :class:`CompilerError`."""
-    try:
-        proc = subprocess.run(cmd, capture_output=True, text=True, timeout=600)
-    except FileNotFoundError as exc:
-        raise CompilerNotFoundError(f"C compiler '{cmd[0]}' not found: {exc.strerror}") from exc
-    except (OSError, subprocess.TimeoutExpired) as exc:
-        raise CompilerError(f"the C compiler could not build {what}: $ {shlex.join(cmd)}: {exc}") from exc
-    if proc.returncode != 0:
-        message = (proc.stderr.strip() or proc.stdout.strip() or "(no output)")
-        raise CompilerError(f"the C compiler failed building {what} (exit status {proc.returncode}):\n"
-                            f"$ {shlex.join(cmd)}\n{message}")
-    return (proc.stderr + proc.stdout).strip()
-
-
-def build_export(src: Path, prefix: str, build: Path, cc: list[str]) -> tuple[Path, Path, str]:
-    """Compile the library and the example of the export in ``src`` into ``build``.
-
-    Same flags as the generated Makefile. Returns the library, the program and any
-    compiler output (warnings; with ``-Werror`` there are none on success).
-    """
-    lib = build / f"lib{prefix}_constraints.so"
-    exe = build / f"{prefix}_example"
-    out = run_compiler([*cc, *C_FLAGS, "-fPIC", "-shared", "-o", str(lib), str(src / f"{prefix}_casadi.c"),
-                        str(src / f"{prefix}_constraints.c"), "-lm"], f"{lib.name}")
-    out += run_compiler([*cc, *C_FLAGS, "-o", str(exe), str(src / f"{prefix}_example.c"), f"-L{build}",
-                         f"-l{prefix}_constraints", f"-Wl,-rpath,{build}", "-lm"], f"{exe.name}")
-    return lib, exe, out
-
-
-@dataclass
-class RoundTripReport:
-    """Largest relative errors of the compiled code against the CasADi evaluation.
-
-    ``casadi_external`` and ``c_api`` map each function to its largest error over the
-    random states (per state and output: max abs difference / max abs reference);
-    ``example`` maps ``<function>.<output>`` to the error of the example's printout.
-    """
-
-    n_states: int
-    seed: int
-    compiler: str
-    casadi_external: dict[str, float]
-    c_api: dict[str, float]
-    example: dict[str, float]
-    compiler_output: str
-    build_seconds: float
-    tolerance: float = TOLERANCE
-
-    @property
-    def max_error(self) -> float:
-        return max([*self.casadi_external.values(), *self.c_api.values(), *self.example.values()], default=0.0)
-
-    @property
-    def passed(self) -> bool:
-        return self.max_error <= self.tolerance
-
-    def to_dict(self) -> dict:
-        return {"n_states": self.n_states, "seed": self.seed, "compiler": self.compiler, "tolerance": self.tolerance,
-                "max_relative_error": self.max_error, "casadi_external": self.casadi_external, "c_api": self.c_api,
-                "example": self.example, "build_seconds": self.build_seconds}
-
-
-def relative_error(computed, reference) -> float:
-    """Max over rows of ``max|computed - reference| / max|reference|`` (0 when both are zero)."""
-    c, r = np.atleast_2d(np.asarray(computed, float)), np.atleast_2d(np.asarray(reference, float))
-    if c.shape != r.shape or not np.array_equal(np.isfinite(c), np.isfinite(r)):
-        return float("inf")
-    c, r = np.where(np.isfinite(r), c, 0.0), np.where(np.isfinite(r), r, 0.0)
-    num, den = np.abs(c - r).max(axis=1, initial=0.0), np.abs(r).max(axis=1, initial=0.0)
-    ratio = np.divide(num, den, out=np.where(num > 0, np.inf, 0.0), where=den > 0)
-    return float(ratio.max(initial=0.0))
-
-
-def _evaluate(f: ca.Function, args: list[np.ndarray]) -> list[np.ndarray]:
-    """``f`` mapped over rows of ``args``; outputs with rows as samples."""
-    n = args[0].shape[0]
-    res = f.map(n)(*[a.T for a in args])
-    res = res if isinstance(res, (list, tuple)) else [res]
-    return [np.asarray(r).reshape(-1, n).T for r in res]
-
-
-def _call_c_api(lib: ctypes.CDLL, report: ExportReport, fn: ExportedFunction, args: list[np.ndarray]) -> list[np.ndarray]:
-    n = args[0].shape[0]
-    cfun = getattr(lib, fn.name)
-    cfun.restype = ctypes.c_int
-    dptr = ctypes.POINTER(ctypes.c_double)
-    outs = [np.zeros((n, report.blocks[b].size)) for b in fn.outputs]
-    for k in range(n):
-        cargs = [ctypes.c_double(a[k, 0]) if b == "t" else a[k].ctypes.data_as(dptr) for b, a in zip(fn.inputs, args)]
-        cargs += [o[k].ctypes.data_as(dptr) for o in outs]
-        if cfun(*cargs) != 0:
-            raise RoundTripError(f"{fn.name} returned an error at random state {k}")
-    return outs
-
-
-def _parse_example(text: str) -> dict[tuple[str, str], dict[int, float]]:
-    values: dict[tuple[str, str], dict[int, float]] = {}
-    for line in text.splitlines():
-        if not line.strip() or line.startswith("#"):
-            continue
-        fn, block, index, _, value = line.split()
-        values.setdefault((fn, block), {})[int(index)] = float(value)
-    return values
-
-
-def check_example_output(report: ExportReport, text: str) -> dict[str, float]:
-    """Relative error of each printed output of the example against CasADi at the sample."""
-    printed = _parse_example(text)
-    lam_key = (report.function("multipliers").name, "lam")
-    if lam_key not in printed:
-        raise RoundTripError(f"the example program printed no multipliers:\n{text[:2000]}")
-    sample = dict(report.sample, lam=np.array([printed[lam_key][i] for i in sorted(printed[lam_key])]))
-    errors = {}
-    for fn in report.functions:
-        ref = fn.function(*[sample[b] for b in fn.inputs])
-        ref = ref if isinstance(ref, (list, tuple)) else [ref]
-        for b, r in zip(fn.outputs, ref):
-            got = printed.get((fn.name, b), {})
-            c = np.array([got.get(i, np.nan) for i in range(report.blocks[b].size)])
-            errors[f"{fn.name}.{b}"] = relative_error(c, np.asarray(r).ravel())
-    return errors
-
-
-def verify_export(report: ExportReport, n_states: int = 1000, seed: int = 0, cc: str | None = None) -> RoundTripReport:
-    """Compile the export, load it back and compare with CasADi on ``n_states`` random states.
-
-    Builds in a temporary folder (the export folder is not touched) with the flags of the
-    Makefile; compares the CasADi interface (``casadi.external``) and the plain C API
-    (``ctypes``) of every function, and runs the example program and checks its printout.
-
-    Raises
-    ------
-    CompilerNotFoundError, CompilerError
-        No compiler, or the compiler failed (its own message is included).
-    RoundTripError
-        A relative error above ``1e-12``.
-    """
-    compiler = find_compiler(cc)
-    states = random_states(report, n_states, seed)
-    with tempfile.TemporaryDirectory(prefix=f"ocp-export-{report.prefix}-") as build:
-        started = time.perf_counter()
-        lib_path, exe, output = build_export(report.out_dir, report.prefix, Path(build), compiler)
-        build_seconds = time.perf_counter() - started
-        lib = ctypes.CDLL(str(lib_path))
-        external, c_api = {}, {}
-        for fn in report.functions:
-            args = [states[b] for b in fn.inputs]
-            ref = _evaluate(fn.function, args)
-            ext = _evaluate(ca.external(fn.casadi_name, str(lib_path)), args)
-            external[fn.name] = max(relative_error(a, b) for a, b in zip(ext, ref))
-            c_api[fn.name] = max(relative_error(a, b) for a, b in zip(_call_c_api(lib, report, fn, args), ref))
-        try:
-            proc = subprocess.run([str(exe)], capture_output=True, text=True, timeout=60)
-        except (OSError, subprocess.TimeoutExpired) as exc:
-            raise RoundTripError(f"the example program {exe.name} could not run: {exc}") from exc
-        if proc.returncode != 0:
-            raise RoundTripError(f"the example program {exe.name} failed (status {proc.returncode}): {proc.stderr.strip()}")
-        example = check_example_output(report, proc.stdout)
-    rt = RoundTripReport(n_states, seed, shlex.join(compiler), external, c_api, example, output, build_seconds)
-    if not rt.passed:
-        worst = sorted({**{f"casadi_external {k}": v for k, v in external.items()},
-                        **{f"C API {k}": v for k, v in c_api.items()},
-                        **{f"example {k}": v for k, v in example.items()}}.items(), key=lambda kv: -kv[1])[:3]
-        raise RoundTripError(f"export of '{report.scene}' disagrees with CasADi beyond {TOLERANCE:g} (relative): "
-                             + "; ".join(f"{k}: {v:.3g}" for k, v in worst))
-    return rt
 
 
 # -- command line (wired into ``ocp-constraints`` by cli.py) --------------------------------
