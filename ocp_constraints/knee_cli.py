@@ -86,8 +86,15 @@ def compare(t, predicted: dict, measured, bw: float) -> dict:
 MUSCLE_MODELS = ("hill", "ideal")
 
 
-def run_knee(model, motion, grf, measured=None, muscles_on: bool = True, muscle_model: str = "ideal"):
-    """Gait cycle -> inverse dynamics -> static optimisation (-> comparison). Returns a dict.
+METHODS = ("static", "collocation")
+
+
+def run_knee(model, motion, grf, measured=None, muscles_on: bool = True, muscle_model: str = "ideal",
+             method: str = "static"):
+    """Gait cycle -> inverse dynamics -> static optimisation or collocation (-> comparison). Returns a dict.
+
+    ``method``: ``"static"`` (per-frame static optimisation, :mod:`.knee_static`) or
+    ``"collocation"`` (the whole cycle with activation dynamics, :mod:`.knee_collocation`).
 
     ``muscle_model``: ``"ideal"`` (``F = a F0``, the default) or ``"hill"`` (De Groote et
     al. 2016 force-length-velocity curves, rigid tendon, :mod:`.knee_hill`; experimental: with
@@ -96,6 +103,12 @@ def run_knee(model, motion, grf, measured=None, muscles_on: bool = True, muscle_
     """
     if muscle_model not in MUSCLE_MODELS:
         raise KneeError(f"unknown muscle model '{muscle_model}' (use one of {', '.join(MUSCLE_MODELS)})")
+    if method not in METHODS:
+        raise KneeError(f"unknown method '{method}' (use one of {', '.join(METHODS)})")
+    if method == "collocation":
+        from .knee_collocation import solve_collocation as solve
+    else:
+        solve = solve_static
     from .gait import run_inverse_dynamics
     from .knee_muscles import MusclePaths, muscle_parameters
     from .opensim_io import read_motion
@@ -128,14 +141,14 @@ def run_knee(model, motion, grf, measured=None, muscles_on: bool = True, muscle_
         factors, l_opt, l_s = scale_lengths(L_ref, l_opt, l_s, alpha0)
         hill = hill_forces(L, V, F0, l_opt, l_s, alpha0)
         hill.scale = dict(zip(paths.muscles, factors.tolist()))
-        res = solve_static(gait.t, Qc, R, A, hill.active, muscles_on=muscles_on, passive=hill.passive)
+        res = solve(gait.t, Qc, R, A, hill.active, muscles_on=muscles_on, passive=hill.passive)
     else:
-        res = solve_static(gait.t, Qc, R, A, F0, muscles_on=muscles_on)
+        res = solve(gait.t, Qc, R, A, F0, muscles_on=muscles_on)
     res.muscles = paths.muscles
     osim = load_osim(model)
     bw = sum(b.mass for b in osim.bodies.values()) * float(np.linalg.norm(osim.gravity))
     out = {"result": res, "gait": gait, "cycle": (t0, t1), "bw": bw, "F0": F0, "hill": hill, "muscle_model": muscle_model,
-           "wall_total": time.perf_counter() - clock}
+           "method": method, "wall_total": time.perf_counter() - clock}
     if measured is not None:
         meas = read_measured(measured)
         out["measured"] = meas
@@ -156,8 +169,14 @@ def write_knee_results(run: dict, out, plots: bool = True, inputs: dict | None =
     from .knee_static import RESERVED
     for i, c in enumerate(RESERVED):
         cols[f"reserve_{c}"] = r.reserve[:, i]
+    if getattr(r, "excitation", None) is not None:          # collocation: the muscle states and controls
+        for i, m in enumerate(r.muscles):
+            cols[f"{m}.activation"] = r.activation[:, i]
+            cols[f"{m}.excitation"] = r.excitation[:, i]
     write_csv(folder / "loads.csv", r.t, cols)
-    summary = {"task": "knee contact loads, static optimisation", "inputs": inputs or {},
+    method = run.get("method", "static")
+    summary = {"task": f"knee contact loads, {METHOD_TEXT[method]}", "method": method, "success": True,
+               "inputs": inputs or {},
                "gait_cycle_s": list(run["cycle"]), "frames": len(r.t), "body_weight_N": run["bw"],
                "solver": {"nlp": "all frames in one NLP, IPOPT (casadi.nlpsol)", "status": r.status,
                           "max_equation_residual": r.residual},
@@ -167,10 +186,28 @@ def write_knee_results(run: dict, out, plots: bool = True, inputs: dict | None =
                "peak_bw": {"medial": float(r.medial.max() / run["bw"]), "lateral": float(r.lateral.max() / run["bw"]),
                            "total": float(r.total.max() / run["bw"])},
                "comparison": run.get("comparison"), "software": software_versions()}
+    if method == "collocation":
+        from .knee_collocation import SMOOTHING
+
+        summary["solver"]["transcription"] = ("first-order Radau IIA (backward Euler) collocation of the activation "
+                                              "ODE on the frames' time grid (the frames are the mesh)")
+        summary["solver"]["max_activation_ode_residual"] = r.ode_residual
+        summary["activation_dynamics"] = {
+            "model": ("da/dt = (e - a)(e/tau_act + (1 - e)/tau_deact), Raasch et al. 1997, J Biomech 30:595"
+                      if SMOOTHING == 0 else "da/dt = (e - a)/tau(e, a), De Groote et al. 2016, Ann Biomed Eng "
+                      "44:2922 (doi:10.1007/s10439-016-1591-9), eqs. 1-2"),
+            "initial_guess": "the static optimisation's solution (e = a)",
+            "tau_act_s": r.tau[0], "tau_deact_s": r.tau[1], "smoothing_b": SMOOTHING,
+            "objective": "int sum (e^2 + a^2)/2 + reserve_weight sum rho^2 dt (trapezoidal weights)"}
+        summary["solve_time_s"] = r.timings["build"] + r.timings["solve"]
     write_json(folder / "summary.json", summary)
     if plots:
         summary["plots"] = [_plot(run, folder)]
     return summary
+
+
+METHOD_TEXT = {"static": "static optimisation",
+               "collocation": "direct collocation with activation dynamics over the gait cycle"}
 
 
 def _muscle_model_text(run) -> dict:
@@ -203,7 +240,8 @@ def _plot(run, folder) -> str:
     fig, axes = plt.subplots(3, 1, figsize=(8, 9), sharex=True)
     meas = run.get("measured")
     for ax, (name, y) in zip(axes, (("medial", r.medial), ("lateral", r.lateral), ("total", r.total))):
-        ax.plot(r.t, y / bw, label=f"predicted (static optimisation, {run.get('muscle_model', 'ideal')} muscles)")
+        ax.plot(r.t, y / bw, label=f"predicted ({METHOD_TEXT[run.get('method', 'static')]}, "
+                                         f"{run.get('muscle_model', 'ideal')} muscles)")
         if meas is not None:
             tm, med, lat = meas
             m = {"medial": med, "lateral": lat, "total": med + lat}[name]
@@ -223,9 +261,8 @@ def _plot(run, folder) -> str:
 def cli_knee(args) -> int:
     """Run ``knee``; input errors print one line and return 2."""
     try:
-        if args.method == "collocation":
-            raise KneeError("--method collocation is not implemented yet (use --method static)")
-        run = run_knee(args.model, args.motion, args.grf, args.measured, muscle_model=args.muscle_model)
+        run = run_knee(args.model, args.motion, args.grf, args.measured, muscle_model=args.muscle_model,
+                       method=args.method)
         summary = write_knee_results(run, args.out, plots=not args.no_plots,
                                      inputs={"model": str(args.model), "motion": str(args.motion), "grf": str(args.grf),
                                              "measured": None if args.measured is None else str(args.measured),
@@ -235,7 +272,7 @@ def cli_knee(args) -> int:
         return 2
     w = summary["wall_time_s"]
     print(f"knee: cycle {summary['gait_cycle_s'][0]:g}-{summary['gait_cycle_s'][1]:g} s, {summary['frames']} frames, "
-          f"static optimisation {w['build'] + w['solve']:.2f} s; results in {args.out}")
+          f"{METHOD_TEXT[args.method]} {w['build'] + w['solve']:.2f} s; results in {args.out}")
     if summary["comparison"]:
         for k, v in summary["comparison"].items():
             print(f"  {k}: RMSE {v['rmse_bw']:.2f} BW, r {v['r']:.2f}, peak error {v['peak_error_bw']:+.2f} BW")

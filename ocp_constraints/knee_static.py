@@ -140,7 +140,7 @@ def solve_static(t, Qc, R, A, F0, muscles_on: bool = True, contact_nonnegative: 
     Pm = ca.MX.sym("P", p.numel(), N)
     fo, go = frame.map(N)(X, Pm)
     nlp = {"x": ca.vec(X), "p": ca.vec(Pm), "f": ca.sum2(fo), "g": ca.vec(go)}
-    solver = ca.nlpsol("knee_so", "ipopt", nlp, {"ipopt.print_level": 0, "print_time": False,
+    solver = ca.nlpsol("knee_so", "ipopt", nlp, {"ipopt.print_level": 0, "print_time": False, "ipopt.sb": "yes",
                                                   "ipopt.tol": 1e-8, "ipopt.hessian_constant": "yes",
                                                   "ipopt.jac_c_constant": "yes", "ipopt.jac_d_constant": "yes"})
     built = time.perf_counter()
