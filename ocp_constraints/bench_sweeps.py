@@ -38,7 +38,7 @@ TASK_SCHEMES = {"whirling": (("trapezoidal", 1), ("hermite-simpson", 1), ("radau
                 "rolling_disk": (("trapezoidal", 1), ("hermite-simpson", 1), ("radau", 3), ("radau", 5)),
                 "ball_socket": (("trapezoidal", 1), ("hermite-simpson", 1), ("radau", 3))}
 SIM_SCENES = ("pendulum", "sliding_cylinder", "sliding_disk", "rolling_disk", "whirling", "ball_socket")
-SIM_TOLERANCES = (1e-4, 1e-6, 1e-8, 1e-10, 1e-12)
+SIM_TOLERANCES = (1e-4, 1e-6, 1e-8, 1e-10, 1e-12, 1e-13)
 
 
 @dataclass
