@@ -115,8 +115,9 @@ def _readme_section(by_scene: dict, summary: dict, args) -> str:
             lam = summary["scenes"].get(s, {}).get("lambda_1e-8", {}).get(k)
             lines.append(f"| {s} | {k} | {ref} | {lam['setting'] if lam else 'not reached'} | "
                          f"{lam['total_s']:.3f} |" if lam else f"| {s} | {k} | {ref} | not reached | |")
-    lines += ["", "Radau rows report the multiplier error without t = 0, where Radau collocation has no control of its "
-              "own (the column `lambda error at t0` in the tables has it).", "", "### Peers (same run)", "",
+    lines += ["", "Radau rows report the multiplier error without t = 0, where Radau collocation has no defect of its "
+              "own (its inputs there are extrapolated from the first interval); the column `lambda error at t0` in the "
+              "tables has it.", "", "### Peers (same run)", "",
               _peer_markdown(summary["peer_ratios"], summary["peer_notes"])]
     if summary.get("scaling"):
         lines += ["### Scaling", "", summary["scaling"]["markdown"], ""]
