@@ -46,6 +46,14 @@ def energy_balance(traj: Trajectory) -> dict[str, float | list]:
     }
 
 
+def simulate_scene(scene: Scene, t_final: float | None = None, options: SimulationOptions | None = None) -> Trajectory:
+    """Consistent initial state and forward simulation of ``scene`` (nothing written)."""
+    eqs = SystemEquations(scene.model)
+    w0 = scene.inputs(0.0) if scene.inputs else None
+    q0, u0 = consistent_state(eqs, scene.coordinates, scene.rates, inputs=w0)
+    return simulate(eqs, q0, u0, float(scene.t_final if t_final is None else t_final), options, inputs=scene.inputs)
+
+
 def run_simulation(scene: Scene, scene_name: str, t_final: float | None = None, out: str | Path | None = None,
                    options: SimulationOptions | None = None, plots: bool = True) -> tuple[Trajectory, dict]:
     """Simulate ``scene`` and, if ``out`` is given, write the results files there.

@@ -6,12 +6,13 @@ import json
 import numpy as np
 import pytest
 
-from ocp_constraints import SystemEquations, build_scene, consistent_state, simulate
+from ocp_constraints import build_scene
 from ocp_constraints.cli import main
 from ocp_constraints.errors import ModelError
 from ocp_constraints.ocp import OptimalControlProblem
 from ocp_constraints.ocp_solution import OCPSolveError
 from ocp_constraints.scenes import build_task
+from ocp_constraints.tasks import simulate_scene
 from ocp_constraints.transcription import HermiteSimpson, Radau, Trapezoidal, scheme_from_name
 
 
@@ -19,9 +20,7 @@ from ocp_constraints.transcription import HermiteSimpson, Radau, Trapezoidal, sc
 def free_pendulum():
     """The tilted pendulum's free motion over 1 s, from the core's forward simulation."""
     scene = build_scene("pendulum")
-    eqs = SystemEquations(scene.model)
-    q0, u0 = consistent_state(eqs, scene.coordinates, scene.rates)
-    return scene, simulate(eqs, q0, u0, 1.0)
+    return scene, simulate_scene(scene, 1.0)
 
 
 def _free_motion_error(scene, reference, method) -> float:

@@ -5,14 +5,13 @@ import math
 
 import numpy as np
 
-from ocp_constraints import SystemEquations, build_scene, consistent_state, simulate
+from ocp_constraints import build_scene
+from ocp_constraints.tasks import simulate_scene
 
 
 def test_hinge_force_and_both_constraint_moments_match_the_balance_about_the_hinge():
     scene = build_scene("pendulum")
-    eqs = SystemEquations(scene.model)
-    q0, u0 = consistent_state(eqs, scene.coordinates, scene.rates)
-    traj = simulate(eqs, q0, u0, 3.0)
+    traj = simulate_scene(scene, 3.0)
     p = scene.model.parameters
     m, L, g = p["mass"], p["length"], p["gravity"]
     tilt = math.radians(p["tilt_deg"])

@@ -3,15 +3,14 @@ from __future__ import annotations
 
 import numpy as np
 
-from ocp_constraints import SystemEquations, build_scene, consistent_state, simulate
+from ocp_constraints import SystemEquations, build_scene
 from ocp_constraints.rotations import EulerSequence, quaternion_from_rotation
+from ocp_constraints.tasks import simulate_scene
 
 
 def _run(quaternion: float, t_final: float):
-    scene = build_scene("ball_socket", {"quaternion": quaternion})
-    eqs = SystemEquations(scene.model)
-    q0, u0 = consistent_state(eqs, scene.coordinates, scene.rates)
-    return eqs, simulate(eqs, q0, u0, t_final)
+    traj = simulate_scene(build_scene("ball_socket", {"quaternion": quaternion}), t_final)
+    return traj.eqs, traj
 
 
 def test_quaternion_and_313_chains_give_the_same_loads_over_one_second():

@@ -4,16 +4,15 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from ocp_constraints import SystemEquations, build_scene, consistent_state, simulate
+from ocp_constraints import build_scene
 from ocp_constraints.errors import ModelError
+from ocp_constraints.tasks import simulate_scene
 
 
 @pytest.fixture(scope="module")
 def disk_run():
     scene = build_scene("sliding_disk")
-    eqs = SystemEquations(scene.model)
-    q0, u0 = consistent_state(eqs, scene.coordinates, scene.rates)
-    return scene, simulate(eqs, q0, u0, 1.0)
+    return scene, simulate_scene(scene, 1.0)
 
 
 def test_contact_load_moved_to_the_center_of_mass_is_eq_29(disk_run):
