@@ -237,12 +237,20 @@ class SystemEquations:
             qv = np.asarray(q, dtype=float)
             dq_dp = np.eye(self.nq)
         else:
-            p = ca.SX.sym("p", coordinates.size1_in(0))
             qv = np.asarray(coordinates(q), dtype=float).ravel()
-            dq_dp = np.asarray(ca.Function("dq_dp", [p], [ca.jacobian(coordinates(p), p)])(q))
+            dq_dp = np.asarray(self._coordinate_jacobian(coordinates)(q))
         G = np.asarray(self.constraint_functions(qv, np.zeros(self.nu), t, np.zeros(self.inputs.numel()))[0])
         A = G @ np.asarray(self.speeds_from_rates(qv)) @ dq_dp
         return np.asarray(lam, dtype=float).reshape(-1, 1) * A
+
+    def _coordinate_jacobian(self, coordinates: ca.Function) -> ca.Function:
+        """``p -> dq/dp``, built once per coordinate map (called per sample in gait work)."""
+        cache = self.__dict__.setdefault("_coordinate_jacobians", {})
+        key = id(coordinates)
+        if key not in cache:
+            p = ca.SX.sym("p", coordinates.size1_in(0))
+            cache[key] = (coordinates, ca.Function("dq_dp", [p], [ca.jacobian(coordinates(p), p)]))
+        return cache[key][1]
 
     # -- checks -------------------------------------------------------------------------
     def check_redundancy(self, q, t: float = 0.0, tol: float = 1e-9) -> None:
