@@ -15,7 +15,9 @@ the solution drift-free at every point (the contract of DESIGN.md); the slack
 mesh is refined), so the NLP stays consistent, as in Moco. At ``t_0`` the
 acceleration-level constraint ``G a + gamma_acc = 0`` determines ``lambda_0``. The
 scheme's defects tie ``x`` and ``D`` (see :mod:`ocp_constraints.transcription`).
-IPOPT is called through ``casadi.nlpsol`` with exact Hessians of an SX graph.
+The NLP is a few kinds of SX elements (one point, one interval, the boundary rows)
+repeated over the mesh; IPOPT gets exact derivatives assembled from each element's own
+(:mod:`ocp_constraints.nlp_assembly`), so the build grows like the mesh.
 """
 from __future__ import annotations
 
@@ -26,6 +28,7 @@ import casadi as ca
 import numpy as np
 
 from .errors import ModelError
+from .nlp_assembly import BlockNLP, element
 from .ocp import OptimalControlProblem
 from .ocp_solution import OCPSolution, OCPSolveError
 from .rotations import EulerSequence
@@ -84,67 +87,104 @@ class Transcription:
         # Normalized time of every point, and its quadrature weight (times the horizon).
         frac = np.zeros(P)
         quad = np.zeros(P)
+        weights = scheme.weights
         for k in range(N):
             hk = mesh[k + 1] - mesh[k]
             for j in range(p):
                 frac[k * (p - 1) + j] = mesh[k] + scheme.tau[j] * hk
-                quad[k * (p - 1) + j] += scheme.weights[j] * hk
+                quad[k * (p - 1) + j] += weights[j] * hk
         self.fractions, self.quadrature = frac, quad
 
-        w = ca.SX.sym("w", sum(self.layout.sizes()))
-        X, A, L, W, Gm, Tvar = self.layout.split(w)
-        T = Tvar[0] if self.layout.free_time else problem.t_final
-        point = self._point_functions()
-        g, lbg, ubg = [], [], []
-
-        def add(expr, lo=0.0, hi=0.0) -> int:
-            """Append constraint rows; return the index of the first."""
-            first, n = len(lbg), expr.numel()
-            g.append(expr)
-            lbg.extend([lo] * n if np.ndim(lo) == 0 else list(lo))
-            ubg.extend([hi] * n if np.ndim(hi) == 0 else list(hi))
-            return first
-
-        cost = 0
-        D = []  # state derivatives at the points
-        for i in range(P):
-            t_i = frac[i] * T
-            gam = Gm[:, i - 1] if i > 0 else ca.SX.zeros(self.layout.nh)
-            D.append(ca.vertcat(point["kinematics"](X[:, i], gam, t_i), A[:, i]))
-            dyn, vel, pos = point["residuals"](X[:, i], A[:, i], L[:, i], W[:, i], t_i)
-            add(dyn)
-            add(vel)
-            add(pos)
-            if problem.integral_terms and quad[i] > 0:
-                cost += quad[i] * T * point["integrand"](X[:, i], L[:, i], W[:, i], t_i)
-            if problem.path_constraints:
-                lo = [pc.lower for pc in problem.path_constraints]
-                hi = [pc.upper for pc in problem.path_constraints]
-                add(point["path"](X[:, i], L[:, i], W[:, i], t_i), lo, hi)
-        add(point["acceleration"](X[:, 0], D[0], W[:, 0], 0 * T))
-        if not scheme.first_point_has_controls and n_in and not ca.depends_on(ca.vertcat(ca.vec(e.G), e.e), e.inputs):
-            # Radau never uses inputs at t0 in its defects: take the first interval's input
-            # polynomial there, so that lambda_0 (from the acceleration constraint) is consistent.
-            ell = scheme.start_extrapolation
-            add(W[:, 0] - sum(ell[j] * W[:, j + 1] for j in range(len(ell))))
-        for k in range(N):
-            idx = [k * (p - 1) + j for j in range(p)]
-            h = (mesh[k + 1] - mesh[k]) * T
-            for defect in scheme.defects([X[:, i] for i in idx], [D[i] for i in idx], h):
-                add(defect)
+        self.block = BlockNLP(sum(self.layout.sizes()), self._elements())
+        self.nlp = self.block.nlp
+        self._lbg, self._ubg = self.block.lbg, self.block.ubg
         self._boundary_rows = []
         for which, values in (("initial", problem.initial_values), ("final", problem.final_values)):
-            i = 0 if which == "initial" else P - 1
-            for name in values:
-                self._boundary_rows.append((which, name, add(point["named"][name](X[:, i], W[:, i]))))
-        cost += problem.time_weight * (Tvar[0] if self.layout.free_time else 0)
-        self.nlp = {"x": w, "f": cost if not isinstance(cost, int) else ca.SX(0), "g": ca.vertcat(*g)}
-        self._lbg, self._ubg = np.array(lbg, float), np.array(ubg, float)
+            for r, name in enumerate(values):
+                self._boundary_rows.append((which, name, self.block.rows(which) + r))
         self._solver = None
         self._solver_options: dict | None = None
         self.build_time = time.perf_counter() - started
 
-    # -- per-point pieces, as SX functions inlined into the NLP --------------------------------
+    # -- the NLP as elements repeated over the mesh (see nlp_assembly) --------------------------
+    def _indices(self) -> dict:
+        """Where each point's blocks sit in the decision vector (``-1``: a fixed zero)."""
+        lay = self.layout
+        start = np.concatenate([[0], np.cumsum(lay.sizes())])
+
+        def block(b: int, size: int):
+            return lambda i: start[b] + i * size + np.arange(size)
+
+        def gamma(i: int) -> np.ndarray:
+            # No kinematic slack at t0: the positions there are the initial ones.
+            return start[4] + (i - 1) * lay.nh + np.arange(lay.nh) if i > 0 else -np.ones(lay.nh, int)
+
+        return {"x": block(0, lay.nx), "a": block(1, lay.nu), "lam": block(2, lay.nc), "w": block(3, lay.n_in),
+                "gamma": gamma, "T": [start[5]] if lay.free_time else []}
+
+    def _elements(self) -> list:
+        pr, e, lay, scheme = self.problem, self.eqs, self.layout, self.scheme
+        point, index = self._point_functions(), self._indices()
+        P, N, p = lay.n_points, scheme.intervals, len(scheme.tau)
+        x = ca.SX.sym("x", lay.nx)
+        a = ca.SX.sym("a", e.nu)
+        lam = ca.SX.sym("lam", e.nc)
+        w = ca.SX.sym("w", lay.n_in)
+        # The horizon: a variable (free final time) or a constant of every element.
+        T = ca.SX.sym("T")
+        T_z, T_c = ([T], []) if lay.free_time else ([], [T])
+        T_value = [] if lay.free_time else [pr.t_final]
+        elements = []
+
+        frac, quad = ca.SX.sym("frac"), ca.SX.sym("quad")
+        t = frac * T
+        dyn, vel, pos = point["residuals"](x, a, lam, w, t)
+        rows, n_eq = [dyn, vel, pos], dyn.numel() + vel.numel() + pos.numel()
+        if pr.path_constraints:
+            rows.append(point["path"](x, lam, w, t))
+        lo = [0.0] * n_eq + [pc.lower for pc in pr.path_constraints]
+        hi = [0.0] * n_eq + [pc.upper for pc in pr.path_constraints]
+        cost = quad * T * point["integrand"](x, lam, w, t) if pr.integral_terms else 0
+        elements.append(element(
+            "point", ca.vertcat(x, a, lam, w, *T_z), ca.vertcat(frac, quad, *T_c), ca.vertcat(*rows), cost,
+            [np.concatenate([index["x"](i), index["a"](i), index["lam"](i), index["w"](i), index["T"]]) for i in range(P)],
+            [[self.fractions[i], self.quadrature[i], *T_value] for i in range(P)], lo, hi))
+
+        xs = [ca.SX.sym(f"x{j}", lay.nx) for j in range(p)]
+        as_ = [ca.SX.sym(f"a{j}", e.nu) for j in range(p)]
+        gs = [ca.SX.sym(f"gamma{j}", lay.nh) for j in range(p)]
+        fr = ca.SX.sym("frac", p)
+        h = ca.SX.sym("h")
+        D = [ca.vertcat(point["kinematics"](xs[j], gs[j], fr[j] * T), as_[j]) for j in range(p)]
+        mesh = scheme.mesh_fractions
+        elements.append(element(
+            "interval", ca.vertcat(*xs, *as_, *gs, *T_z), ca.vertcat(fr, h, *T_c),
+            ca.vertcat(*scheme.defects(xs, D, h * T)), 0,
+            [np.concatenate([*(index["x"](i) for i in _interval_points(k, p)), *(index["a"](i) for i in _interval_points(k, p)),
+                             *(index["gamma"](i) for i in _interval_points(k, p)), index["T"]]) for k in range(N)],
+            [[*self.fractions[list(_interval_points(k, p))], mesh[k + 1] - mesh[k], *T_value] for k in range(N)]))
+
+        none = ca.SX.sym("none", 0)
+        d0 = ca.vertcat(point["kinematics"](x, ca.SX.zeros(lay.nh), 0), a)
+        elements.append(element("acceleration", ca.vertcat(x, a, w), none, point["acceleration"](x, d0, w, 0), 0,
+                                [np.concatenate([index["x"](0), index["a"](0), index["w"](0)])], np.zeros((1, 0))))
+        if not scheme.first_point_has_controls and lay.n_in and not ca.depends_on(ca.vertcat(ca.vec(e.G), e.e), e.inputs):
+            # Radau never uses inputs at t0 in its defects: take the first interval's input
+            # polynomial there, so that lambda_0 (from the acceleration constraint) is consistent.
+            ell = scheme.start_extrapolation
+            ws = [ca.SX.sym(f"w{j}", lay.n_in) for j in range(len(ell) + 1)]
+            elements.append(element("extrapolation", ca.vertcat(*ws), none, ws[0] - sum(ell[j] * ws[j + 1] for j in range(len(ell))), 0,
+                                    [np.concatenate([index["w"](j) for j in range(len(ell) + 1)])], np.zeros((1, 0))))
+        for which, values in (("initial", pr.initial_values), ("final", pr.final_values)):
+            i = 0 if which == "initial" else P - 1
+            quantities = [point["named"][n](x, w) for n in values]
+            elements.append(element(which, ca.vertcat(x, w), none, ca.vertcat(*quantities) if quantities else ca.SX(0, 1), 0,
+                                    [np.concatenate([index["x"](i), index["w"](i)])], np.zeros((1, 0))))
+        if lay.free_time and pr.time_weight:
+            elements.append(element("final_time", T, none, ca.SX(0, 1), pr.time_weight * T, [index["T"]], np.zeros((1, 0))))
+        return elements
+
+    # -- per-point pieces, as SX functions -----------------------------------------------------
     def _point_functions(self) -> dict:
         pr, e = self.problem, self.eqs
         x = ca.vertcat(e.q, e.u)
@@ -257,7 +297,7 @@ class Transcription:
         opts = {**DEFAULT_IPOPT, **ipopt_options}
         started = time.perf_counter()
         if self._solver is None or opts != self._solver_options:
-            self._solver = ca.nlpsol("ocp", "ipopt", self.nlp, opts)
+            self._solver = ca.nlpsol("ocp", "ipopt", self.nlp, {**opts, **self.block.derivative_options})
             self._solver_options = opts
         setup = time.perf_counter() - started
         x0 = self.initial_guess() if warm_start is None else np.asarray(warm_start.decision_vector, float)
@@ -277,6 +317,11 @@ class Transcription:
                 solution,
             )
         return solution
+
+
+def _interval_points(k: int, p: int) -> range:
+    """The points of interval ``k`` (``p`` per interval, the last shared with the next)."""
+    return range(k * (p - 1), k * (p - 1) + p)
 
 
 def transcribe(problem: OptimalControlProblem, scheme: Scheme) -> Transcription:
