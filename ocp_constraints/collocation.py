@@ -15,6 +15,9 @@ the solution drift-free at every point (the contract of DESIGN.md); the slack
 mesh is refined), so the NLP stays consistent, as in Moco. At ``t_0`` the
 acceleration-level constraint ``G a + gamma_acc = 0`` determines ``lambda_0``. The
 scheme's defects tie ``x`` and ``D`` (see :mod:`ocp_constraints.transcription`).
+Radau defines ``h u'_j = sum_r C_rj u_r`` at its collocation points, so there ``a_j``
+is that expression, not a variable, and only the coordinate defects remain: the same
+NLP with ``nu`` fewer variables and rows per point (IPOPT's factorization is cheaper).
 The NLP is a few kinds of SX elements (one point, one interval, the boundary rows)
 repeated over the mesh; IPOPT gets exact derivatives assembled from each element's own
 (:mod:`ocp_constraints.nlp_assembly`), so the build grows like the mesh.
@@ -23,6 +26,7 @@ from __future__ import annotations
 
 import time
 from dataclasses import dataclass
+from types import SimpleNamespace
 
 import casadi as ca
 import numpy as np
@@ -50,10 +54,11 @@ class Layout:
     nh: int
     n_in: int
     free_time: bool
+    n_acc: int  # points with acceleration variables: all, or t0 only where the scheme gives them
 
     def sizes(self) -> list[int]:
         P = self.n_points
-        return [self.nx * P, self.nu * P, self.nc * P, self.n_in * P, self.nh * (P - 1), int(self.free_time)]
+        return [self.nx * P, self.nu * self.n_acc, self.nc * P, self.n_in * P, self.nh * (P - 1), int(self.free_time)]
 
     def split(self, w):
         out, start = [], 0
@@ -62,7 +67,7 @@ class Layout:
             start += n
         P = self.n_points
         X = ca.reshape(out[0], self.nx, P)
-        A = ca.reshape(out[1], self.nu, P)
+        A = ca.reshape(out[1], self.nu, self.n_acc)
         L = ca.reshape(out[2], self.nc, P)
         W = ca.reshape(out[3], self.n_in, P)
         Gm = ca.reshape(out[4], self.nh, P - 1)
@@ -82,7 +87,11 @@ class Transcription:
         p = len(scheme.tau)
         N = scheme.intervals
         P = N * (p - 1) + 1
-        self.layout = Layout(P, nx, e.nu, e.nc, e.phi.numel(), n_in, problem.t_final_bounds is not None)
+        # Where the scheme gives u' from the states (Radau), accelerations are expressions
+        # of them after t0, not variables: a smaller KKT system for IPOPT, the same NLP.
+        self.derivative_matrix = scheme.derivative_matrix
+        n_acc = 1 if self.derivative_matrix is not None else P
+        self.layout = Layout(P, nx, e.nu, e.nc, e.phi.numel(), n_in, problem.t_final_bounds is not None, n_acc)
         mesh = scheme.mesh_fractions
         # Normalized time of every point, and its quadrature weight (times the horizon).
         frac = np.zeros(P)
@@ -123,66 +132,100 @@ class Transcription:
                 "gamma": gamma, "T": [start[5]] if lay.free_time else []}
 
     def _elements(self) -> list:
-        pr, e, lay, scheme = self.problem, self.eqs, self.layout, self.scheme
-        point, index = self._point_functions(), self._indices()
-        P, N, p = lay.n_points, scheme.intervals, len(scheme.tau)
-        x = ca.SX.sym("x", lay.nx)
-        a = ca.SX.sym("a", e.nu)
-        lam = ca.SX.sym("lam", e.nc)
-        w = ca.SX.sym("w", lay.n_in)
-        # The horizon: a variable (free final time) or a constant of every element.
+        """The NLP's pieces: dynamics at the points, defects on the intervals, t0 and end rows."""
+        e, lay = self.eqs, self.layout
         T = ca.SX.sym("T")
-        T_z, T_c = ([T], []) if lay.free_time else ([], [T])
-        T_value = [] if lay.free_time else [pr.t_final]
-        elements = []
+        # The horizon: a variable of every element (free final time) or a constant.
+        s = SimpleNamespace(point=self._point_functions(), index=self._indices(), T=T,
+                            x=ca.SX.sym("x", lay.nx), a=ca.SX.sym("a", e.nu), lam=ca.SX.sym("lam", e.nc),
+                            w=ca.SX.sym("w", lay.n_in), none=ca.SX.sym("none", 0),
+                            T_z=[T] if lay.free_time else [], T_c=[] if lay.free_time else [T],
+                            T_value=[] if lay.free_time else [self.problem.t_final])
+        return [*self._point_elements(s), self._interval_element(s), *self._end_elements(s)]
 
+    def _point_elements(self, s) -> list:
+        """Dynamics, velocity, position and path rows, and the integrand, at every point."""
+        pr, e, lay, scheme = self.problem, self.eqs, self.layout, self.scheme
+        x, a, lam, w, T, index = s.x, s.a, s.lam, s.w, s.T, s.index
         frac, quad = ca.SX.sym("frac"), ca.SX.sym("quad")
         t = frac * T
-        dyn, vel, pos = point["residuals"](x, a, lam, w, t)
-        rows, n_eq = [dyn, vel, pos], dyn.numel() + vel.numel() + pos.numel()
+        rows = list(s.point["residuals"](x, a, lam, w, t))
         if pr.path_constraints:
-            rows.append(point["path"](x, lam, w, t))
+            rows.append(s.point["path"](x, lam, w, t))
+        rows = ca.vertcat(*rows)
+        n_eq = e.nu + e.nc + lay.nh
         lo = [0.0] * n_eq + [pc.lower for pc in pr.path_constraints]
         hi = [0.0] * n_eq + [pc.upper for pc in pr.path_constraints]
-        cost = quad * T * point["integrand"](x, lam, w, t) if pr.integral_terms else 0
-        elements.append(element(
-            "point", ca.vertcat(x, a, lam, w, *T_z), ca.vertcat(frac, quad, *T_c), ca.vertcat(*rows), cost,
-            [np.concatenate([index["x"](i), index["a"](i), index["lam"](i), index["w"](i), index["T"]]) for i in range(P)],
-            [[self.fractions[i], self.quadrature[i], *T_value] for i in range(P)], lo, hi))
+        cost = quad * T * s.point["integrand"](x, lam, w, t) if pr.integral_terms else ca.SX(0)
+        C = self.derivative_matrix
+        at_points = range(lay.n_points) if C is None else range(1)
+        out = [element(
+            "point", ca.vertcat(x, a, lam, w, *s.T_z), ca.vertcat(frac, quad, *s.T_c), rows, cost,
+            [np.concatenate([index["x"](i), index["a"](i), index["lam"](i), index["w"](i), index["T"]]) for i in at_points],
+            [[self.fractions[i], self.quadrature[i], *s.T_value] for i in at_points], lo, hi)]
+        if C is None:
+            return out
+        # After t0: a = u' from the interval's speeds, (sum_r C[r, j] u_r) / h.
+        p, mesh = len(scheme.tau), scheme.mesh_fractions
+        us = ca.SX.sym("u_interval", e.nu, p)
+        column, h = ca.SX.sym("C_j", p), ca.SX.sym("h")
+        rows, cost = ca.substitute([rows, cost], [a], [us @ column / (h * T)])
+        instances = [(k, j, k * (p - 1) + j) for k in range(scheme.intervals) for j in range(1, p)]
+        out.append(element(
+            "collocation_point", ca.vertcat(x, lam, w, ca.vec(us), *s.T_z), ca.vertcat(frac, quad, column, h, *s.T_c),
+            rows, cost,
+            [np.concatenate([index["x"](i), index["lam"](i), index["w"](i),
+                             *(index["x"](r)[e.nq :] for r in _interval_points(k, p)), index["T"]]) for k, j, i in instances],
+            [[self.fractions[i], self.quadrature[i], *C[:, j], mesh[k + 1] - mesh[k], *s.T_value] for k, j, i in instances],
+            lo, hi))
+        return out
 
+    def _interval_element(self, s):
+        """The scheme's defects on every interval."""
+        e, lay, scheme, index = self.eqs, self.layout, self.scheme, s.index
+        p, mesh, C = len(scheme.tau), scheme.mesh_fractions, self.derivative_matrix
         xs = [ca.SX.sym(f"x{j}", lay.nx) for j in range(p)]
-        as_ = [ca.SX.sym(f"a{j}", e.nu) for j in range(p)]
-        gs = [ca.SX.sym(f"gamma{j}", lay.nh) for j in range(p)]
-        fr = ca.SX.sym("frac", p)
-        h = ca.SX.sym("h")
-        D = [ca.vertcat(point["kinematics"](xs[j], gs[j], fr[j] * T), as_[j]) for j in range(p)]
-        mesh = scheme.mesh_fractions
-        elements.append(element(
-            "interval", ca.vertcat(*xs, *as_, *gs, *T_z), ca.vertcat(fr, h, *T_c),
-            ca.vertcat(*scheme.defects(xs, D, h * T)), 0,
-            [np.concatenate([*(index["x"](i) for i in _interval_points(k, p)), *(index["a"](i) for i in _interval_points(k, p)),
-                             *(index["gamma"](i) for i in _interval_points(k, p)), index["T"]]) for k in range(N)],
-            [[*self.fractions[list(_interval_points(k, p))], mesh[k + 1] - mesh[k], *T_value] for k in range(N)]))
+        accelerations = [ca.SX.sym(f"a{j}", e.nu) for j in range(p)]
+        gammas = [ca.SX.sym(f"gamma{j}", lay.nh) for j in range(p)]
+        fractions, h = ca.SX.sym("frac", p), ca.SX.sym("h")
+        D = [ca.vertcat(s.point["kinematics"](xs[j], gammas[j], fractions[j] * s.T), accelerations[j]) for j in range(p)]
+        defects = scheme.defects(xs, D, h * s.T)
+        if C is not None:
+            # The speed rows hold by construction of a; only the coordinate rows remain.
+            defects, accelerations = [d[: e.nq] for d in defects], []
 
-        none = ca.SX.sym("none", 0)
-        d0 = ca.vertcat(point["kinematics"](x, ca.SX.zeros(lay.nh), 0), a)
-        elements.append(element("acceleration", ca.vertcat(x, a, w), none, point["acceleration"](x, d0, w, 0), 0,
-                                [np.concatenate([index["x"](0), index["a"](0), index["w"](0)])], np.zeros((1, 0))))
+        def variables(k: int) -> np.ndarray:
+            points = _interval_points(k, p)
+            return np.concatenate([*(index["x"](i) for i in points), *(index["a"](i) for i in points if C is None),
+                                   *(index["gamma"](i) for i in points), index["T"]])
+
+        return element("interval", ca.vertcat(*xs, *accelerations, *gammas, *s.T_z), ca.vertcat(fractions, h, *s.T_c),
+                       ca.vertcat(*defects), 0, [variables(k) for k in range(scheme.intervals)],
+                       [[*self.fractions[list(_interval_points(k, p))], mesh[k + 1] - mesh[k], *s.T_value]
+                        for k in range(scheme.intervals)])
+
+    def _end_elements(self, s) -> list:
+        """Acceleration-level constraints at t0, Radau's input extrapolation, boundary values, final time."""
+        pr, e, lay, scheme, index = self.problem, self.eqs, self.layout, self.scheme, s.index
+        x, a, w, none = s.x, s.a, s.w, s.none
+        d0 = ca.vertcat(s.point["kinematics"](x, ca.SX.zeros(lay.nh), 0), a)
+        out = [element("acceleration", ca.vertcat(x, a, w), none, s.point["acceleration"](x, d0, w, 0), 0,
+                       [np.concatenate([index["x"](0), index["a"](0), index["w"](0)])], np.zeros((1, 0)))]
         if not scheme.first_point_has_controls and lay.n_in and not ca.depends_on(ca.vertcat(ca.vec(e.G), e.e), e.inputs):
             # Radau never uses inputs at t0 in its defects: take the first interval's input
             # polynomial there, so that lambda_0 (from the acceleration constraint) is consistent.
             ell = scheme.start_extrapolation
             ws = [ca.SX.sym(f"w{j}", lay.n_in) for j in range(len(ell) + 1)]
-            elements.append(element("extrapolation", ca.vertcat(*ws), none, ws[0] - sum(ell[j] * ws[j + 1] for j in range(len(ell))), 0,
-                                    [np.concatenate([index["w"](j) for j in range(len(ell) + 1)])], np.zeros((1, 0))))
+            out.append(element("extrapolation", ca.vertcat(*ws), none, ws[0] - sum(ell[j] * ws[j + 1] for j in range(len(ell))), 0,
+                               [np.concatenate([index["w"](j) for j in range(len(ell) + 1)])], np.zeros((1, 0))))
         for which, values in (("initial", pr.initial_values), ("final", pr.final_values)):
-            i = 0 if which == "initial" else P - 1
-            quantities = [point["named"][n](x, w) for n in values]
-            elements.append(element(which, ca.vertcat(x, w), none, ca.vertcat(*quantities) if quantities else ca.SX(0, 1), 0,
-                                    [np.concatenate([index["x"](i), index["w"](i)])], np.zeros((1, 0))))
+            i = 0 if which == "initial" else lay.n_points - 1
+            quantities = [s.point["named"][n](x, w) for n in values]
+            out.append(element(which, ca.vertcat(x, w), none, ca.vertcat(*quantities) if quantities else ca.SX(0, 1), 0,
+                               [np.concatenate([index["x"](i), index["w"](i)])], np.zeros((1, 0))))
         if lay.free_time and pr.time_weight:
-            elements.append(element("final_time", T, none, ca.SX(0, 1), pr.time_weight * T, [index["T"]], np.zeros((1, 0))))
-        return elements
+            out.append(element("final_time", s.T, none, ca.SX(0, 1), pr.time_weight * s.T, [index["T"]], np.zeros((1, 0))))
+        return out
 
     # -- per-point pieces, as SX functions -----------------------------------------------------
     def _point_functions(self) -> dict:
@@ -287,10 +330,25 @@ class Transcription:
                 W[r] = a + (pr.final_values.get(n, a) - a) * self.fractions
         for i in range(lay.n_points):
             X[: e.nq, i] = project_positions(e, X[: e.nq, i], t[i], inputs=W[:, i])
-        A = np.gradient(X[e.nq :], t, axis=1) if lay.n_points > 1 else np.zeros((e.nu, 1))
+        A = np.gradient(X[e.nq :], t, axis=1)[:, : lay.n_acc] if lay.n_points > 1 else np.zeros((e.nu, 1))
         parts = [X.ravel(order="F"), A.ravel(order="F"), np.zeros(lay.nc * lay.n_points), W.ravel(order="F"),
                  np.zeros(lay.nh * (lay.n_points - 1)), np.array([T] if lay.free_time else [])]
         return np.concatenate(parts)
+
+    def accelerations(self, w: np.ndarray, t_final: float) -> np.ndarray:
+        """``u'`` at every point (``nu x P``): the variables, or from the speeds where the scheme gives them."""
+        X, A = (np.asarray(b, float) for b in self.layout.split(w)[:2])
+        C = self.derivative_matrix
+        if C is None:
+            return A
+        P, p, nq = self.layout.n_points, len(self.scheme.tau), self.eqs.nq
+        out = np.zeros((self.eqs.nu, P))
+        out[:, 0] = A[:, 0]
+        mesh = self.scheme.mesh_fractions
+        for k in range(self.scheme.intervals):
+            points = list(_interval_points(k, p))
+            out[:, points[1:]] = X[nq:, points] @ C[:, 1:] / ((mesh[k + 1] - mesh[k]) * t_final)
+        return out
 
     # -- solve ----------------------------------------------------------------------------------
     def solve(self, ipopt_options: dict, warm_start=None) -> OCPSolution:

@@ -80,7 +80,7 @@ class BlockNLP:
         g, f = [], 0
         jac_src, jac_rows, jac_cols = [], [], []
         grad_src, grad_rows = [], []
-        hess_src, hess_rows, hess_cols = [], [], []
+        hess_src, hess_rows, hess_cols, hess_weights = [], [], [], []
         lbg, ubg = [], []
         for el in elements:
             K, nr = el.instances, el.rows_per_instance
@@ -125,13 +125,16 @@ class BlockNLP:
                 a, b = el.indices[:, hr], el.indices[:, hc]
                 hess_rows.append(np.minimum(a, b).ravel())
                 hess_cols.append(np.maximum(a, b).ravel())
+                # A variable read twice by one instance: its local off-diagonal pair lands
+                # on the global diagonal, where the symmetric counterpart adds the same again.
+                hess_weights.append(np.where((a == b) & (hr != hc)[None, :], 2.0, 1.0).ravel())
 
         self.g = ca.vertcat(*g)
         self.f = f if isinstance(f, ca.MX) else ca.MX(0)
         self.lbg, self.ubg = np.concatenate(lbg), np.concatenate(ubg)
         jac = _scatter(jac_src, jac_rows, jac_cols, self.m, n)
         grad = ca.densify(_scatter(grad_src, grad_rows, [np.zeros_like(r) for r in grad_rows], n, 1))
-        hess = _scatter(hess_src, hess_rows, hess_cols, n, n)
+        hess = _scatter(hess_src, hess_rows, hess_cols, n, n, hess_weights)
         self.grad_f = ca.Function("nlp_grad_f", [self.w, self.p], [self.f, grad], ["x", "p"], ["f", "grad_f_x"])
         self.jac_g = ca.Function("nlp_jac_g", [self.w, self.p], [self.g, jac], ["x", "p"], ["g", "jac_g_x"])
         self.hess_lag = ca.Function("nlp_hess_l", [self.w, self.p, self.lam_f, self.lam_g], [hess],
@@ -152,8 +155,8 @@ class BlockNLP:
         return self.row_offsets[name] + instance * el.rows_per_instance
 
 
-def _scatter(sources: list, rows: list, cols: list, nrow: int, ncol: int) -> ca.MX:
-    """The sparse matrix with ``sum`` of ``sources[k]`` at ``(rows[k], cols[k])``.
+def _scatter(sources: list, rows: list, cols: list, nrow: int, ncol: int, weights: list | None = None) -> ca.MX:
+    """The sparse matrix with the ``sum`` of ``weights[k] * sources[k]`` at ``(rows[k], cols[k])``.
 
     Entries touching a fixed zero (index -1) are dropped; repeated positions add up
     (a point shared by two intervals gets both intervals' Hessians).
@@ -167,5 +170,7 @@ def _scatter(sources: list, rows: list, cols: list, nrow: int, ncol: int) -> ca.
     unique, position = np.unique(key, return_inverse=True)
     sparsity = ca.Sparsity.triplet(nrow, ncol, (unique % nrow).tolist(), (unique // nrow).tolist())
     n_src = len(r)
-    assemble = ca.DM(ca.Sparsity.triplet(len(unique), n_src, position.tolist(), src.tolist()), 1.0)
+    scale = np.concatenate(weights)[keep] if weights else np.ones(len(src))
+    # One entry per column (source), columns in increasing order: the values are in CCS order.
+    assemble = ca.DM(ca.Sparsity.triplet(len(unique), n_src, position.tolist(), src.tolist()), scale)
     return ca.MX(sparsity, ca.mtimes(assemble, ca.vertcat(*sources)))

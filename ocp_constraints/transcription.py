@@ -91,6 +91,12 @@ class Scheme:
         return True
 
     @property
+    def derivative_matrix(self) -> np.ndarray | None:
+        """``C`` with ``h x'(tau_j) = sum_r C[r, j] x_r`` at the points after ``tau_0``, where the
+        scheme defines derivatives from states alone (Radau); else None."""
+        return None
+
+    @property
     def order(self) -> int:
         raise NotImplementedError
 
@@ -153,8 +159,12 @@ class Radau(Scheme):
         return f"radau{self.degree}"
 
     def defects(self, X, D, h):
-        C = _lagrange_derivative_matrix(self.tau)
+        C = self.derivative_matrix
         return [h * D[j] - sum(C[r, j] * X[r] for r in range(len(X))) for j in range(1, len(X))]
+
+    @property
+    def derivative_matrix(self) -> np.ndarray:
+        return _lagrange_derivative_matrix(self.tau)
 
     @property
     def weights(self):

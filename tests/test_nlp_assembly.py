@@ -35,16 +35,19 @@ def _assert_derivatives_agree(nlp: BlockNLP, x: np.ndarray, seed: int = 0) -> No
         assert np.abs(reference - assembled).max() <= 1e-12 * scale
 
 
-def test_shared_variables_add_up_and_fixed_zeros_drop_out():
+def test_shared_and_repeated_variables_add_up_and_fixed_zeros_drop_out():
     z, c = ca.SX.sym("z", 3), ca.SX.sym("c")
     # Instances share variables 2 and 4; the last instance reads a fixed zero (-1).
     chain = element("chain", z, c, ca.vertcat(z[0] * z[1] * c, ca.sin(z[2]) + z[0] ** 2), z[1] ** 2 * z[2] * c,
                     [[0, 1, 2], [2, 3, 4], [4, 5, -1]], [[1.0], [2.0], [3.0]])
     y = ca.SX.sym("y", 2)
     bounded = element("bounded", y, ca.SX.sym("none", 0), ca.exp(y[0]) * y[1], y[0] ** 3, [[0, 5]], np.zeros((1, 0)), -1.0, 1.0)
-    nlp = BlockNLP(6, [chain, bounded])
-    assert nlp.m == 7 and nlp.rows("bounded") == 6
-    assert list(nlp.lbg) == [0.0] * 6 + [-1.0] and list(nlp.ubg) == [0.0] * 6 + [1.0]
+    # One instance reading variable 1 twice: chain rule sums, Hessian diagonal counts both ways.
+    repeated = element("repeated", z, c, z[0] * z[1] * z[2] + c, z[0] ** 2 * z[2] + ca.sin(z[0] * z[1]) * c,
+                       [[1, 3, 1]], [[0.5]])
+    nlp = BlockNLP(6, [chain, bounded, repeated])
+    assert nlp.m == 8 and nlp.rows("bounded") == 6
+    assert list(nlp.lbg) == [0.0] * 6 + [-1.0, 0.0] and list(nlp.ubg) == [0.0] * 6 + [1.0, 0.0]
     _assert_derivatives_agree(nlp, np.random.default_rng(1).standard_normal(6))
 
 

@@ -160,3 +160,20 @@ def test_free_final_time_minimum_time_swing_up_is_bang_bang():
     assert max(sol.residuals()) <= 1e-8
     with pytest.raises(ModelError, match="free final time"):
         base.minimize_final_time()
+
+
+@pytest.mark.parametrize("method", [Radau(6, degree=3), Radau(5, degree=1), HermiteSimpson(8), Trapezoidal(12)])
+def test_reported_accelerations_satisfy_the_dynamics_at_every_point(method):
+    # Radau's accelerations after t0 are not NLP variables but (sum_r C[r, j] u_r) / h:
+    # the reported u' must be those, i.e. satisfy M u' = f + G^T lambda at every point.
+    import casadi as ca
+
+    _, problem = build_task("pendulum", "swing_up")
+    sol = problem.solve(method)
+    e = sol.transcription.eqs
+    a, lam = ca.SX.sym("a", e.nu), ca.SX.sym("lam", e.nc)
+    dynamics = ca.Function("dynamics", [e.q, e.u, e.t, e.inputs, a, lam], [e.mass_matrix @ a - e.forces - e.G.T @ lam])
+    traj = sol.trajectory
+    worst = max(float(np.abs(dynamics(traj.q[i], traj.u[i], sol.t[i], sol.inputs[:, i], traj.udot[i], traj.lam[i])).max())
+                for i in range(len(sol.t)))
+    assert worst <= 1e-8 * max(1.0, float(np.abs(traj.lam).max()))
