@@ -8,7 +8,7 @@ import numpy as np
 
 from .bench import (LAMBDA_TARGET, QUICK_SCENES, cheapest, machine, markdown_table, peer_ratios,
                     plot_work_precision, run_peers, write_csv_rows)
-from .bench_sweeps import OCP_TASKS, SIM_SCENES, sweep_ocp, sweep_sim
+from .bench_sweeps import OCP_TASKS, OCP_WITHOUT_REFERENCE, SIM_SCENES, sweep_ocp, sweep_sim
 from .errors import SceneError
 from .results import prepare_output_folder, write_atomic
 from .scenes import builtin_scene_names
@@ -117,7 +117,9 @@ def _readme_section(by_scene: dict, summary: dict, args) -> str:
                          f"{lam['total_s']:.3f} |" if lam else f"| {s} | {k} | {ref} | not reached | |")
     lines += ["", "Radau rows report the multiplier error without t = 0, where Radau collocation has no defect of its "
               "own (its inputs there are extrapolated from the first interval); the column `lambda error at t0` in the "
-              "tables has it.", "", "### Peers (same run)", "",
+              "tables has it.", ""]
+    lines += [f"No optimal-control sweep for {s}: {why}." for s, why in OCP_WITHOUT_REFERENCE.items() if s in by_scene]
+    lines += ["", "### Peers (same run)", "",
               _peer_markdown(summary["peer_ratios"], summary["peer_notes"])]
     if summary.get("scaling"):
         lines += ["### Scaling", "", summary["scaling"]["markdown"], ""]

@@ -24,19 +24,22 @@ from .simulate import SimulationOptions, simulate
 from .state import consistent_state
 from .transcription import scheme_from_name
 
-OCP_TASKS = {"pendulum": "swing_up", "whirling": "spin_up", "rolling_disk": "drive", "ball_socket": "reach"}
+OCP_TASKS = {"pendulum": "swing_up", "whirling": "spin_up", "rolling_disk": "drive"}
+# Tasks left out of the optimal-control sweep, and why (printed with the report).
+OCP_WITHOUT_REFERENCE = {
+    "ball_socket": "its task `reach` has several local optima (objectives 0.80 to 0.89 found by Radau 3 and 7 and Hermite-Simpson, "
+                   "N = 20 to 160), and which one IPOPT reaches changes with rounding-level changes of the NLP, "
+                   "so no fine solution is a reference for the others; its simulation is benchmarked"}
 SCHEMES = [("trapezoidal", 1), ("hermite-simpson", 1)] + [("radau", d) for d in range(1, 10)]
 FULL_INTERVALS = (10, 20, 40, 80, 160, 400)
 QUICK = {"pendulum": [("trapezoidal", 1, 20), ("trapezoidal", 1, 80), ("hermite-simpson", 1, 20), ("hermite-simpson", 1, 80),
                       ("radau", 3, 10), ("radau", 3, 40), ("radau", 5, 20), ("radau", 9, 10)]}
 # Fine settings of two different scheme families for tasks without a closed-form reference.
 TASK_REFERENCES = {"whirling": (("radau", 7, 20), ("hermite-simpson", 1, 100)),
-                   "rolling_disk": (("radau", 7, 40), ("hermite-simpson", 1, 200)),
-                   "ball_socket": (("radau", 5, 20), ("hermite-simpson", 1, 80))}
-TASK_GRID = {"whirling": (10, 20, 40), "rolling_disk": (10, 20, 40, 80), "ball_socket": (10, 20)}
+                   "rolling_disk": (("radau", 7, 40), ("hermite-simpson", 1, 200))}
+TASK_GRID = {"whirling": (10, 20, 40), "rolling_disk": (10, 20, 40, 80)}
 TASK_SCHEMES = {"whirling": (("trapezoidal", 1), ("hermite-simpson", 1), ("radau", 3)),
-                "rolling_disk": (("trapezoidal", 1), ("hermite-simpson", 1), ("radau", 3), ("radau", 5)),
-                "ball_socket": (("trapezoidal", 1), ("hermite-simpson", 1), ("radau", 3))}
+                "rolling_disk": (("trapezoidal", 1), ("hermite-simpson", 1), ("radau", 3), ("radau", 5))}
 SIM_SCENES = ("pendulum", "sliding_cylinder", "sliding_disk", "rolling_disk", "whirling", "ball_socket")
 SIM_TOLERANCES = (1e-4, 1e-6, 1e-8, 1e-10, 1e-12, 1e-13)
 
