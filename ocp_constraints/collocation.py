@@ -15,9 +15,10 @@ the solution drift-free at every point (the contract of DESIGN.md); the slack
 mesh is refined), so the NLP stays consistent, as in Moco. At ``t_0`` the
 acceleration-level constraint ``G a + gamma_acc = 0`` determines ``lambda_0``. The
 scheme's defects tie ``x`` and ``D`` (see :mod:`ocp_constraints.transcription`).
-Radau defines ``h u'_j = sum_r C_rj u_r`` at its collocation points, so there ``a_j``
-is that expression, not a variable, and only the coordinate defects remain: the same
-NLP with ``nu`` fewer variables and rows per point (IPOPT's factorization is cheaper).
+Radau defines ``h u'_j = sum_r C_rj u_r`` at its collocation points; up to degree 4
+``a_j`` is that expression there, not a variable, and only the coordinate defects
+remain: the same NLP with ``nu`` fewer variables and rows per point (IPOPT's
+factorization is cheaper; see ``Scheme.accelerations_from_speeds``).
 The NLP is a few kinds of SX elements (one point, one interval, the boundary rows)
 repeated over the mesh; IPOPT gets exact derivatives assembled from each element's own
 (:mod:`ocp_constraints.nlp_assembly`), so the build grows like the mesh.
@@ -89,8 +90,8 @@ class Transcription:
         P = N * (p - 1) + 1
         # Where the scheme gives u' from the states (Radau), accelerations are expressions
         # of them after t0, not variables: a smaller KKT system for IPOPT, the same NLP.
-        self.derivative_matrix = scheme.derivative_matrix
-        n_acc = 1 if self.derivative_matrix is not None else P
+        self.accelerations_from_speeds = scheme.accelerations_from_speeds
+        n_acc = 1 if self.accelerations_from_speeds is not None else P
         self.layout = Layout(P, nx, e.nu, e.nc, e.phi.numel(), n_in, problem.t_final_bounds is not None, n_acc)
         mesh = scheme.mesh_fractions
         # Normalized time of every point, and its quadrature weight (times the horizon).
@@ -157,7 +158,7 @@ class Transcription:
         lo = [0.0] * n_eq + [pc.lower for pc in pr.path_constraints]
         hi = [0.0] * n_eq + [pc.upper for pc in pr.path_constraints]
         cost = quad * T * s.point["integrand"](x, lam, w, t) if pr.integral_terms else ca.SX(0)
-        C = self.derivative_matrix
+        C = self.accelerations_from_speeds
         at_points = range(lay.n_points) if C is None else range(1)
         out = [element(
             "point", ca.vertcat(x, a, lam, w, *s.T_z), ca.vertcat(frac, quad, *s.T_c), rows, cost,
@@ -183,7 +184,7 @@ class Transcription:
     def _interval_element(self, s):
         """The scheme's defects on every interval."""
         e, lay, scheme, index = self.eqs, self.layout, self.scheme, s.index
-        p, mesh, C = len(scheme.tau), scheme.mesh_fractions, self.derivative_matrix
+        p, mesh, C = len(scheme.tau), scheme.mesh_fractions, self.accelerations_from_speeds
         xs = [ca.SX.sym(f"x{j}", lay.nx) for j in range(p)]
         accelerations = [ca.SX.sym(f"a{j}", e.nu) for j in range(p)]
         gammas = [ca.SX.sym(f"gamma{j}", lay.nh) for j in range(p)]
@@ -338,7 +339,7 @@ class Transcription:
     def accelerations(self, w: np.ndarray, t_final: float) -> np.ndarray:
         """``u'`` at every point (``nu x P``): the variables, or from the speeds where the scheme gives them."""
         X, A = (np.asarray(b, float) for b in self.layout.split(w)[:2])
-        C = self.derivative_matrix
+        C = self.accelerations_from_speeds
         if C is None:
             return A
         P, p, nq = self.layout.n_points, len(self.scheme.tau), self.eqs.nq

@@ -66,6 +66,7 @@ def _min_time_pendulum():
     (("pendulum", "swing_up"), Trapezoidal(4)),
     (("pendulum", "swing_up"), HermiteSimpson(3)),
     (("pendulum", "swing_up"), Radau(3, degree=3)),
+    (("pendulum", "swing_up"), Radau(2, degree=6)),       # accelerations stay variables
     (("whirling", "spin_up"), Radau(3, degree=2)),      # inputs inside constraints, extrapolated at t0
     (("rolling_disk", "drive"), HermiteSimpson(3)),     # friction-cone path constraints
     ("min_time", Radau(3, degree=2)),                   # free final time in every element
