@@ -205,6 +205,7 @@ def add_bench_parser(subparsers) -> None:
     b.add_argument("--out", default=DEFAULT_OUT, help=f"results folder (default {DEFAULT_OUT})")
     b.add_argument("--runs", type=int, default=3, help="runs per setting, median kept (default 3, at least 3)")
     b.add_argument("--no-scaling", action="store_true", help="skip the scaling and slow stress runs")
+    b.add_argument("--readme", metavar="PATH", help="also write the report into PATH between its bench markers")
     b.set_defaults(handler=cli_bench)
 
 

@@ -174,6 +174,6 @@ def test_reported_accelerations_satisfy_the_dynamics_at_every_point(method):
     a, lam = ca.SX.sym("a", e.nu), ca.SX.sym("lam", e.nc)
     dynamics = ca.Function("dynamics", [e.q, e.u, e.t, e.inputs, a, lam], [e.mass_matrix @ a - e.forces - e.G.T @ lam])
     traj = sol.trajectory
-    worst = max(float(np.abs(dynamics(traj.q[i], traj.u[i], sol.t[i], sol.inputs[:, i], traj.udot[i], traj.lam[i])).max())
+    worst = max(float(np.abs(np.asarray(dynamics(traj.q[i], traj.u[i], sol.t[i], sol.inputs[:, i], traj.udot[i], traj.lam[i]))).max())
                 for i in range(len(sol.t)))
     assert worst <= 1e-8 * max(1.0, float(np.abs(traj.lam).max()))
