@@ -105,20 +105,27 @@ def run_scaling_and_stress(out, log=print) -> dict:
         for n in grid:
             points[kind][n] = _run_point(kind, n)
             log(f"  {kind} n={n}: {points[kind][n]}")
-    md = ["| what | n | build (s) | solve (s) | peak memory (MB) |", "|---|---|---|---|---|"]
+    md = ["| what | n | build (s) | solve (s) | IPOPT iterations | peak memory (MB) |", "|---|---|---|---|---|---|"]
     fits = {}
     for kind, label in (("ocp", "swing-up Radau3, N intervals"), ("chain", "chain of n bodies, 1 s simulation")):
         good = {n: p for n, p in points[kind].items() if "error" not in p}
         for n, p in points[kind].items():
-            md.append(f"| {label} | {n} | {p.get('build_s', float('nan')):.3f} | {p.get('solve_s', float('nan')):.3f} | "
-                      f"{p.get('peak_rss_mb', float('nan')):.0f} |" if "error" not in p else f"| {label} | {n} | failed: {p['error']} | | |")
+            if "error" in p:
+                md.append(f"| {label} | {n} | failed: {p['error']} | | | |")
+                continue
+            iterations = p.get("iterations", "")
+            md.append(f"| {label} | {n} | {p['build_s']:.3f} | {p['solve_s']:.3f} | {iterations} | {p['peak_rss_mb']:.0f} |")
+            if iterations:
+                p["solve_per_iteration_s"] = p["solve_s"] / iterations
         if len(good) >= 2:
             ns = np.array(sorted(good))
-            fits[kind] = {q: _fit(ns, [good[n][q] for n in ns]) for q in ("build_s", "solve_s", "peak_rss_mb")}
+            quantities = ("build_s", "solve_s", "peak_rss_mb") + (("solve_per_iteration_s",) if kind == "ocp" else ())
+            fits[kind] = {q: _fit(ns, [good[n][q] for n in ns]) for q in quantities}
     md.append("")
     for kind, f in fits.items():
-        md.append(f"Fitted exponents ({kind}, time ~ n^k over the whole range): build {f['build_s']:.2f}, solve {f['solve_s']:.2f}, "
-                  f"peak memory {f['peak_rss_mb']:.2f}.")
+        per_iteration = f", solve per IPOPT iteration {f['solve_per_iteration_s']:.2f}" if "solve_per_iteration_s" in f else ""
+        md.append(f"Fitted exponents ({kind}, time ~ n^k over the whole range): build {f['build_s']:.2f}, solve {f['solve_s']:.2f}"
+                  f"{per_iteration}, peak memory {f['peak_rss_mb']:.2f}.")
     stress = slow_stress(log)
     md += ["", "Slow stress cases:", ""] + [f"- {k}: {v}" for k, v in stress.items()]
     return {"points": points, "fits": fits, "stress": stress, "markdown": "\n".join(md)}
