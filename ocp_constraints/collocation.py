@@ -310,9 +310,8 @@ class Transcription:
 
     def initial_guess(self) -> np.ndarray:
         """Named guesses, else linear between boundary values; positions projected onto ``phi = 0``."""
-        pr, e, lay = self.problem, self.eqs, self.layout
-        T = pr.t_final
-        t = self.fractions * T
+        pr, lay = self.problem, self.layout
+        t = self.fractions * pr.t_final
         names = pr.model.coordinate_names + pr.model.speed_names
         X = np.zeros((lay.nx, lay.n_points))
         for r, n in enumerate(names):
@@ -329,11 +328,39 @@ class Transcription:
             else:
                 a = pr.initial_values.get(n, 0.0)
                 W[r] = a + (pr.final_values.get(n, a) - a) * self.fractions
+        return self._pack(X, None, np.zeros((lay.nc, lay.n_points)), W, pr.t_final)
+
+    def guess_from(self, solution: OCPSolution) -> np.ndarray:
+        """A start for this transcription from a solution of the same problem on another mesh
+        or scheme (mesh refinement): states, multipliers and inputs through the solution's
+        collocation polynomials, positions projected onto ``phi = 0``."""
+        if solution.transcription is self:
+            return np.asarray(solution.decision_vector, float)
+        pr, other = self.problem, solution.transcription.problem
+        for what, ours, theirs in (("coordinates", pr.model.coordinate_names, other.model.coordinate_names),
+                                   ("inputs", list(pr.model.inputs), list(other.model.inputs)),
+                                   ("constraints", self.eqs.constraint_names, solution.transcription.eqs.constraint_names)):
+            if list(ours) != list(theirs):
+                raise ModelError(f"warm_start: the solution's model '{other.model.name}' has {what} {list(theirs)}, "
+                                 f"this problem's model '{pr.model.name}' has {list(ours)}; pass a solution of the same model")
+        t = self.fractions * solution.t_final
+        names = pr.model.coordinate_names + pr.model.speed_names
+        X = np.array([solution.interpolate(n, t) for n in names])
+        L = np.array([solution.interpolate(f"{c}.lambda", t) for c in self.eqs.constraint_names]).reshape(self.layout.nc, -1)
+        W = np.array([solution.interpolate(n, t) for n in pr.model.inputs]).reshape(self.layout.n_in, -1)
+        return self._pack(X, None, L, W, solution.t_final)
+
+    def _pack(self, X, A, L, W, t_final: float) -> np.ndarray:
+        """The decision vector of these blocks; positions projected onto ``phi = 0``, ``A``
+        (if None) from the speeds by finite differences, slacks zero."""
+        e, lay = self.eqs, self.layout
+        t = self.fractions * t_final
         for i in range(lay.n_points):
             X[: e.nq, i] = project_positions(e, X[: e.nq, i], t[i], inputs=W[:, i])
-        A = np.gradient(X[e.nq :], t, axis=1)[:, : lay.n_acc] if lay.n_points > 1 else np.zeros((e.nu, 1))
-        parts = [X.ravel(order="F"), A.ravel(order="F"), np.zeros(lay.nc * lay.n_points), W.ravel(order="F"),
-                 np.zeros(lay.nh * (lay.n_points - 1)), np.array([T] if lay.free_time else [])]
+        if A is None:
+            A = np.gradient(X[e.nq :], t, axis=1) if lay.n_points > 1 else np.zeros((e.nu, 1))
+        parts = [X.ravel(order="F"), A[:, : lay.n_acc].ravel(order="F"), L.ravel(order="F"), W.ravel(order="F"),
+                 np.zeros(lay.nh * (lay.n_points - 1)), np.array([t_final] if lay.free_time else [])]
         return np.concatenate(parts)
 
     def accelerations(self, w: np.ndarray, t_final: float) -> np.ndarray:
@@ -359,7 +386,7 @@ class Transcription:
             self._solver = ca.nlpsol("ocp", "ipopt", self.nlp, {**opts, **self.block.derivative_options})
             self._solver_options = opts
         setup = time.perf_counter() - started
-        x0 = self.initial_guess() if warm_start is None else np.asarray(warm_start.decision_vector, float)
+        x0 = self.initial_guess() if warm_start is None else self.guess_from(warm_start)
         lbx, ubx = self._bounds(x0)
         lbg, ubg = self._boundary_values()
         started = time.perf_counter()

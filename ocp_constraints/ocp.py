@@ -168,6 +168,8 @@ class OptimalControlProblem:
         """Transcribe with ``method`` (a :mod:`~ocp_constraints.transcription` scheme) and solve with IPOPT.
 
         The transcription is built once per method and reused by later solves.
+        ``warm_start``: a solution of this problem to start from, on the same or another
+        mesh or scheme (e.g. a coarse solve before a fine one).
         Returns an :class:`~ocp_constraints.ocp_solution.OCPSolution`; a failed solve
         raises :class:`~ocp_constraints.ocp_solution.OCPSolveError` carrying the last iterate.
         """

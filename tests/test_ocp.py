@@ -177,3 +177,32 @@ def test_reported_accelerations_satisfy_the_dynamics_at_every_point(method):
     worst = max(float(np.abs(np.asarray(dynamics(traj.q[i], traj.u[i], sol.t[i], sol.inputs[:, i], traj.udot[i], traj.lam[i]))).max())
                 for i in range(len(sol.t)))
     assert worst <= 1e-8 * max(1.0, float(np.abs(traj.lam).max()))
+
+
+def test_warm_start_from_a_coarse_mesh_reaches_the_fine_optimum_in_fewer_iterations():
+    # Mesh refinement: a Radau-3 N = 20 solution interpolated onto Hermite-Simpson N = 60.
+    _, problem = build_task("pendulum", "swing_up")
+    coarse = problem.solve(Radau(20, degree=3))
+    cold = problem.solve(HermiteSimpson(60))
+    warm = problem.solve(HermiteSimpson(60), warm_start=coarse)
+    assert warm.success and warm.objective == pytest.approx(cold.objective, rel=1e-9)
+    assert warm.iterations < cold.iterations
+    # The start itself: states through the coarse polynomials, projected onto phi = 0
+    # (which moves them by the coarse mesh's error, ~1e-4 here).
+    tr = warm.transcription
+    start = tr.guess_from(coarse)
+    X = start[: tr.layout.nx * len(warm.t)].reshape(len(warm.t), -1)
+    psi = problem.model.coordinate_names.index("rod.psi")
+    assert np.abs(X[:, psi] - coarse.interpolate("rod.psi", warm.t)).max() <= 1e-3
+    e = tr.eqs
+    for i in range(len(warm.t)):
+        _, _, phi, _, _ = e.constraint_functions(X[i, : e.nq], X[i, e.nq :], warm.t[i], warm.inputs[:, i])
+        assert np.abs(np.asarray(phi)).max() <= 1e-10
+
+
+def test_warm_start_from_another_model_is_an_error_naming_both():
+    _, pendulum = build_task("pendulum", "swing_up")
+    _, whirling = build_task("whirling", "spin_up")
+    sol = pendulum.solve(Trapezoidal(10))
+    with pytest.raises(ModelError, match="warm_start: the solution's model 'pendulum' has coordinates"):
+        whirling.solve(Trapezoidal(10), warm_start=sol)
