@@ -31,8 +31,10 @@ class SimulationOptions:
     """Integrator settings (the defaults keep energy and residual errors near 1e-10).
 
     ``dt`` is the output sampling; ``projection_interval`` how often the state is put
-    back on the constraint manifold (CVODES restarts there, so not too often); where a
-    projection corrects more than ``drift_tolerance``, the interval is halved from then on.
+    back on the constraint manifold (CVODES restarts there, so not too often). A segment
+    that ends with a residual above ``drift_tolerance`` is integrated again in halves
+    (down to one sample), so the drift stays under the tolerance wherever the sampling
+    allows; the interval grows back while the residuals stay far below it.
     """
 
     dt: float = 0.01
@@ -135,7 +137,8 @@ def simulate(
     n_steps = int(np.ceil((t_final - t0) / opts.dt - 1e-9))
     times = t0 + opts.dt * np.arange(n_steps + 1)
     # With inputs, CVODES restarts at every sample (the inputs are linear per sample).
-    per_segment = 1 if n_in else max(1, int(round(opts.projection_interval / opts.dt)))
+    longest = 1 if n_in else max(1, int(round(opts.projection_interval / opts.dt)))
+    per_segment = longest
     traj = Trajectory(eqs)
     q, u = np.asarray(q0, float).copy(), np.asarray(u0, float).copy()
     work = np.zeros(eqs.nc + 1)
@@ -168,20 +171,29 @@ def simulate(
         except RuntimeError as exc:
             if n > 1:
                 # Redo the segment one sample at a time, to keep every good sample and
-                # to find where (and why) the integration breaks down.
-                per_segment = 1
+                # to find where (and why) the integration breaks down; no growing back,
+                # as each failure costs CVODES its max_steps.
+                per_segment = longest = 1
                 continue
             raise SimulationError(_failure_message(eqs, q, times[k], times[k + 1], exc), partial=traj) from exc
         X = np.asarray(res["xf"]).reshape(eqs.nq + eqs.nu, n)
         W = np.asarray(res["qf"]).reshape(eqs.nc + 1, n)  # constraint works, then applied loads
         if not np.all(np.isfinite(X)):
             raise SimulationError(f"state became non-finite between t = {times[k]:g} and {times[k + n]:g}", partial=traj)
+        q_end, u_end = X[: eqs.nq, -1], X[eqs.nq :, -1]
+        _, _, phi, pi, _ = eqs.constraint_functions(q_end, u_end, times[k + n], input_at(times[k + n]))
+        drift_q, drift_u = float(np.abs(np.asarray(phi)).max(initial=0.0)), float(np.abs(np.asarray(pi)).max(initial=0.0))
+        if max(drift_q, drift_u) > opts.drift_tolerance and n > 1:
+            # Drifted too far (a fast rotation, a long segment): integrate it again in
+            # halves. Nothing of it has been recorded yet.
+            per_segment = n // 2
+            continue
         for j in range(n - 1):
             record(k + j + 1, X[: eqs.nq, j], X[eqs.nq :, j], work + W[:, j])
-        q, u, dq, du = project_state(eqs, X[: eqs.nq, -1], X[eqs.nq :, -1], times[k + n], input_at(times[k + n]))
+        q, u, _, _ = project_state(eqs, q_end, u_end, times[k + n], input_at(times[k + n]))
         work = work + W[:, -1]
-        record(k + n, q, u, work, dq, du)
-        if max(dq, du) > opts.drift_tolerance and per_segment > 1:
-            per_segment = max(1, per_segment // 2)
+        record(k + n, q, u, work, drift_q, drift_u)
+        if max(drift_q, drift_u) < opts.drift_tolerance / 16 and per_segment < longest:
+            per_segment = min(longest, 2 * per_segment)
         k += n
     return traj

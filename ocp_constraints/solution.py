@@ -63,8 +63,9 @@ class Trajectory:
         return self._array("applied_work")
 
     @property
-    def max_projection(self) -> tuple[float, float]:
-        """Largest position and speed corrections the projection applied (the drift)."""
+    def max_drift(self) -> tuple[float, float]:
+        """Largest ``|phi|`` and ``|G u + e|`` found just before a projection (the drift the
+        projection removed; the recorded states there are the projected ones)."""
         return float(self._array("drift_q").max(initial=0.0)), float(self._array("drift_u").max(initial=0.0))
 
     # -- named access -----------------------------------------------------------------
@@ -131,9 +132,10 @@ class Trajectory:
         return TU[:, 0], TU[:, 1]
 
     def residuals(self) -> tuple[float, float]:
-        """Largest position-level ``|phi|`` and velocity-level ``|G u + e|`` residuals."""
+        """Largest position-level ``|phi|`` and velocity-level ``|G u + e|`` residuals,
+        including those just before each projection."""
         f = self.eqs.constraint_functions
-        pos = vel = 0.0
+        pos, vel = self.max_drift  # at projections, the residuals before them
         inputs = self._array("inputs").reshape(len(self), self.eqs.inputs.numel())
         for q, u, t, w in zip(self.q, self.u, self.t, inputs):
             _, _, phi, pi, _ = f(q, u, t, w)

@@ -78,7 +78,7 @@ def run_simulation(scene: Scene, scene_name: str, t_final: float | None = None, 
     solved = time.perf_counter()
     pos, vel = traj.residuals()
     energy = energy_balance(traj)
-    drift_q, drift_u = traj.max_projection
+    drift_q, drift_u = traj.max_drift
     summary = {
         "scene": scene_name,
         "task": "simulate",
@@ -93,7 +93,7 @@ def run_simulation(scene: Scene, scene_name: str, t_final: float | None = None, 
         "wall_time": {"build": built - started, "solve": solved - built},
         "objective": None,
         "max_constraint_residual": {"position": pos, "velocity": vel},
-        "max_projection_correction": {"position": drift_q, "velocity": drift_u},
+        "max_residual_before_projection": {"position": drift_q, "velocity": drift_u},
         "energy": {k: v for k, v in energy.items() if k != "series"},
         "constraints": eqs.constraint_names,
         "joints": [ch.prefix for ch in eqs.load_channels],
