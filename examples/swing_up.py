@@ -32,3 +32,7 @@ loads = sol.loads()  # hinge.F_x..z (N), hinge.M_x..z (N m), hinge.power, and ev
 print(f"peak hinge force {np.hypot(loads['hinge.F_x'], loads['hinge.F_y']).max():.3f} N, "
       f"peak motor torque {np.abs(sol.sample('motor')).max():.3f} N m")
 print(f"constraint residuals (position, velocity): {sol.residuals()}")
+
+# Mesh refinement: start a finer (or another) transcription from this solution.
+fine = ocp.solve(Radau(120, degree=3), warm_start=sol)
+print(f"refined to N = 120: objective {fine.objective:.9f} after {fine.iterations} iterations")
