@@ -77,15 +77,11 @@ class BlockNLP:
         self.m = offset
         self.lam_g = ca.MX.sym("lam_g", self.m)
 
-        g, f = [], 0
-        jac_src, jac_rows, jac_cols = [], [], []
-        grad_src, grad_rows = [], []
-        hess_src, hess_rows, hess_cols, hess_weights = [], [], [], []
-        lbg, ubg = [], []
+        g, f, lbg, ubg = [], 0, [], []
+        jac, grad, hess = _Entries(), _Entries(), _Entries()
         for el in elements:
             K, nr = el.instances, el.rows_per_instance
-            idx = np.where(el.indices < 0, n, el.indices)
-            Z = ca.reshape(w_ext[idx.ravel().tolist()], el.indices.shape[1], K)
+            Z = ca.reshape(w_ext[np.where(el.indices < 0, n, el.indices).ravel().tolist()], el.indices.shape[1], K)
             C = ca.DM(el.constants.T)
             rows, cost = el.function.map(K)(Z, C)
             g.append(ca.vec(rows))
@@ -93,52 +89,44 @@ class BlockNLP:
             reps = K if el.lower.size == nr else 1
             lbg.append(np.tile(el.lower, reps))
             ubg.append(np.tile(el.upper, reps))
-            zs, cs = ca.SX.sym("z", el.function.sparsity_in(0)), ca.SX.sym("c", el.function.sparsity_in(1))
-            r_sx, cost_sx = el.function(zs, cs)
-            lam = ca.SX.sym("lam", nr)
-            lf = ca.SX.sym("lf")
-            offset = self.row_offsets[el.name]
-            # Jacobian of the rows.
-            J = ca.jacobian(r_sx, zs)
-            jr, jc = (np.asarray(a) for a in J.sparsity().get_triplet())
-            if J.nnz():
-                Jf = ca.Function(f"{el.name}_jac", [zs, cs], [J.nz[:]]).map(K)
-                jac_src.append(ca.vec(Jf(Z, C)))
-                rows_glob = offset + np.arange(K)[:, None] * nr + jr[None, :]
-                cols_glob = el.indices[:, jc]
-                jac_rows.append(rows_glob.ravel())
-                jac_cols.append(cols_glob.ravel())
-            # Gradient of the cost.
-            gr = ca.gradient(cost_sx, zs)
-            if gr.nnz():
-                gi = np.asarray(gr.sparsity().get_triplet()[0])
-                Gf = ca.Function(f"{el.name}_grad", [zs, cs], [gr.nz[:]]).map(K)
-                grad_src.append(ca.vec(Gf(Z, C)))
-                grad_rows.append(el.indices[:, gi].ravel())
-            # Hessian of lf * cost + lam . rows, lower triangle.
-            H = ca.tril(ca.hessian(lf * cost_sx + ca.dot(lam, r_sx), zs)[0])
-            if H.nnz():
-                hr, hc = (np.asarray(a) for a in H.sparsity().get_triplet())
-                Lam = ca.reshape(self.lam_g[offset : offset + K * nr], nr, K)
-                Hf = ca.Function(f"{el.name}_hess", [zs, cs, lam, lf], [H.nz[:]]).map(K)
-                hess_src.append(ca.vec(Hf(Z, C, Lam, self.lam_f)))
-                a, b = el.indices[:, hr], el.indices[:, hc]
-                hess_rows.append(np.minimum(a, b).ravel())
-                hess_cols.append(np.maximum(a, b).ravel())
-                # A variable read twice by one instance: its local off-diagonal pair lands
-                # on the global diagonal, where the symmetric counterpart adds the same again.
-                hess_weights.append(np.where((a == b) & (hr != hc)[None, :], 2.0, 1.0).ravel())
-
+            self._differentiate(el, Z, C, jac, grad, hess)
         self.g = ca.vertcat(*g)
         self.f = f if isinstance(f, ca.MX) else ca.MX(0)
         self.lbg, self.ubg = np.concatenate(lbg), np.concatenate(ubg)
-        jac = _scatter(jac_src, jac_rows, jac_cols, self.m, n)
-        grad = ca.densify(_scatter(grad_src, grad_rows, [np.zeros_like(r) for r in grad_rows], n, 1))
-        hess = _scatter(hess_src, hess_rows, hess_cols, n, n, hess_weights)
-        self.grad_f = ca.Function("nlp_grad_f", [self.w, self.p], [self.f, grad], ["x", "p"], ["f", "grad_f_x"])
-        self.jac_g = ca.Function("nlp_jac_g", [self.w, self.p], [self.g, jac], ["x", "p"], ["g", "jac_g_x"])
-        self.hess_lag = ca.Function("nlp_hess_l", [self.w, self.p, self.lam_f, self.lam_g], [hess],
+        self.grad_f = ca.Function("nlp_grad_f", [self.w, self.p], [self.f, ca.densify(grad.matrix(n, 1))],
+                                  ["x", "p"], ["f", "grad_f_x"])
+        self.jac_g = ca.Function("nlp_jac_g", [self.w, self.p], [self.g, jac.matrix(self.m, n)], ["x", "p"], ["g", "jac_g_x"])
+        self.hess_lag = ca.Function("nlp_hess_l", [self.w, self.p, self.lam_f, self.lam_g], [hess.matrix(n, n)],
                                     ["x", "p", "lam_f", "lam_g"], ["triu_hess_gamma_x_x"])
+
+    def _differentiate(self, el: Element, Z, C, jac: _Entries, grad: _Entries, hess: _Entries) -> None:
+        """One element's Jacobian, cost gradient and Lagrangian Hessian (upper triangle), taken
+        once on its SX function, mapped over its instances, with their global positions."""
+        K, nr, offset = el.instances, el.rows_per_instance, self.row_offsets[el.name]
+        z, c = ca.SX.sym("z", el.function.sparsity_in(0)), ca.SX.sym("c", el.function.sparsity_in(1))
+        lam, lam_f = ca.SX.sym("lam", nr), ca.SX.sym("lam_f")
+        rows, cost = el.function(z, c)
+
+        def mapped(name: str, expr: ca.SX, inputs: list, values: list) -> ca.MX:
+            return ca.vec(ca.Function(f"{el.name}_{name}", inputs, [expr.nz[:]]).map(K)(*values))
+
+        J = ca.jacobian(rows, z)
+        if J.nnz():
+            jr, jc = (np.asarray(a) for a in J.sparsity().get_triplet())
+            jac.add(mapped("jac", J, [z, c], [Z, C]), offset + np.arange(K)[:, None] * nr + jr[None, :], el.indices[:, jc])
+        gradient = ca.gradient(cost, z)
+        if gradient.nnz():
+            gi = np.asarray(gradient.sparsity().get_triplet()[0])
+            grad.add(mapped("grad", gradient, [z, c], [Z, C]), el.indices[:, gi], np.zeros((K, len(gi)), int))
+        H = ca.tril(ca.hessian(lam_f * cost + ca.dot(lam, rows), z)[0])
+        if H.nnz():
+            hr, hc = (np.asarray(a) for a in H.sparsity().get_triplet())
+            Lam = ca.reshape(self.lam_g[offset : offset + K * nr], nr, K)
+            a, b = el.indices[:, hr], el.indices[:, hc]
+            # A variable read twice by one instance: its local off-diagonal pair lands on
+            # the global diagonal, where the symmetric counterpart adds the same again.
+            hess.add(mapped("hess", H, [z, c, lam, lam_f], [Z, C, Lam, self.lam_f]), np.minimum(a, b), np.maximum(a, b),
+                     np.where((a == b) & (hr != hc)[None, :], 2.0, 1.0))
 
     @property
     def nlp(self) -> dict:
@@ -155,22 +143,31 @@ class BlockNLP:
         return self.row_offsets[name] + instance * el.rows_per_instance
 
 
-def _scatter(sources: list, rows: list, cols: list, nrow: int, ncol: int, weights: list | None = None) -> ca.MX:
-    """The sparse matrix with the ``sum`` of ``weights[k] * sources[k]`` at ``(rows[k], cols[k])``.
+class _Entries:
+    """A sparse matrix gathered piece by piece: the sum of ``weight * source`` at ``(row, col)``.
 
     Entries touching a fixed zero (index -1) are dropped; repeated positions add up
     (a point shared by two intervals gets both intervals' Hessians).
     """
-    if not sources:
-        return ca.MX(nrow, ncol)
-    r, c = np.concatenate(rows), np.concatenate(cols)
-    keep = (r >= 0) & (c >= 0)
-    src = np.flatnonzero(keep)
-    key = c[keep] * nrow + r[keep]
-    unique, position = np.unique(key, return_inverse=True)
-    sparsity = ca.Sparsity.triplet(nrow, ncol, (unique % nrow).tolist(), (unique // nrow).tolist())
-    n_src = len(r)
-    scale = np.concatenate(weights)[keep] if weights else np.ones(len(src))
-    # One entry per column (source), columns in increasing order: the values are in CCS order.
-    assemble = ca.DM(ca.Sparsity.triplet(len(unique), n_src, position.tolist(), src.tolist()), scale)
-    return ca.MX(sparsity, ca.mtimes(assemble, ca.vertcat(*sources)))
+
+    def __init__(self):
+        self.sources, self.rows, self.cols, self.weights = [], [], [], []
+
+    def add(self, source: ca.MX, rows, cols, weights=None) -> None:
+        rows = np.asarray(rows).ravel()
+        self.sources.append(source)
+        self.rows.append(rows)
+        self.cols.append(np.asarray(cols).ravel())
+        self.weights.append(np.ones(len(rows)) if weights is None else np.asarray(weights, float).ravel())
+
+    def matrix(self, nrow: int, ncol: int) -> ca.MX:
+        if not self.sources:
+            return ca.MX(nrow, ncol)
+        r, c, scale = np.concatenate(self.rows), np.concatenate(self.cols), np.concatenate(self.weights)
+        keep = (r >= 0) & (c >= 0)
+        src = np.flatnonzero(keep)
+        unique, position = np.unique(c[keep] * nrow + r[keep], return_inverse=True)
+        sparsity = ca.Sparsity.triplet(nrow, ncol, (unique % nrow).tolist(), (unique // nrow).tolist())
+        # One entry per column (source), columns in increasing order: the values are in CCS order.
+        assemble = ca.DM(ca.Sparsity.triplet(len(unique), len(r), position.tolist(), src.tolist()), scale[keep])
+        return ca.MX(sparsity, ca.mtimes(assemble, ca.vertcat(*self.sources)))
