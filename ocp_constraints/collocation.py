@@ -88,8 +88,8 @@ class Transcription:
         p = len(scheme.tau)
         N = scheme.intervals
         P = N * (p - 1) + 1
-        # Where the scheme gives u' from the states (Radau), accelerations are expressions
-        # of them after t0, not variables: a smaller KKT system for IPOPT, the same NLP.
+        # Where the scheme gives u' from the speeds (Radau up to degree 4), accelerations
+        # after t0 are expressions, not variables: a smaller KKT system, the same NLP.
         self.accelerations_from_speeds = scheme.accelerations_from_speeds
         n_acc = 1 if self.accelerations_from_speeds is not None else P
         self.layout = Layout(P, nx, e.nu, e.nc, e.phi.numel(), n_in, problem.t_final_bounds is not None, n_acc)
@@ -334,6 +334,9 @@ class Transcription:
         """A start for this transcription from a solution of the same problem on another mesh
         or scheme (mesh refinement): states, multipliers and inputs through the solution's
         collocation polynomials, positions projected onto ``phi = 0``."""
+        if not isinstance(solution, OCPSolution):
+            raise ModelError(f"warm_start must be a solution from problem.solve (an OCPSolution, or an "
+                             f"OCPSolveError's .solution), got {type(solution).__name__}")
         if solution.transcription is self:
             return np.asarray(solution.decision_vector, float)
         pr, other = self.problem, solution.transcription.problem

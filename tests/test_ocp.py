@@ -206,3 +206,5 @@ def test_warm_start_from_another_model_is_an_error_naming_both():
     sol = pendulum.solve(Trapezoidal(10))
     with pytest.raises(ModelError, match="warm_start: the solution's model 'pendulum' has coordinates"):
         whirling.solve(Trapezoidal(10), warm_start=sol)
+    with pytest.raises(ModelError, match="warm_start must be a solution from problem.solve.*got ndarray"):
+        pendulum.solve(Trapezoidal(10), warm_start=sol.decision_vector)
