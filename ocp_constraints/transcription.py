@@ -175,8 +175,9 @@ class Radau(Scheme):
     def accelerations_from_speeds(self) -> np.ndarray | None:
         # Up to degree 4 fewer variables make IPOPT's factorization cheaper; from degree 6
         # on, the denser Hessian blocks (each point's dynamics reads all the interval's
-        # speeds) cost more than they save (pendulum swing-up, N = 20: degree 3 -13 %,
-        # degree 9 +60 % per iteration).
+        # speeds) cost more than they save: per iteration on the swing-up, N = 20, degree 3
+        # -12 %, degree 5 -4 % (but +15 % at N = 80), degree 9 +48 %
+        # (python scripts/radau_acceleration_variables.py).
         return self.derivative_matrix if self.degree <= 4 else None
 
     @property
