@@ -78,7 +78,7 @@ def run_bench(args) -> int:
         from .bench_scaling import run_scaling_and_stress
 
         print("== scaling and slow stress cases")
-        scaling = run_scaling_and_stress(out)
+        scaling = run_scaling_and_stress()
     summary = {"machine": machine(), "quick": args.quick, "runs": runs, "scenes": {}, "peer_ratios": ratios, "peer_notes": notes,
                "scaling": scaling}
     print(f"== recommendations (target error {args.target_error:g}; error = max(state error, relative lambda error))")

@@ -99,7 +99,7 @@ def _run_point(kind: str, n: int) -> dict:
     return json.loads(res.stdout.strip().splitlines()[-1])
 
 
-def run_scaling_and_stress(out, log=print) -> dict:
+def run_scaling_and_stress(log=print) -> dict:
     points = {"ocp": {}, "chain": {}}
     for kind, grid in (("ocp", OCP_N), ("chain", CHAIN_N)):
         for n in grid:

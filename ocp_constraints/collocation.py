@@ -328,7 +328,7 @@ class Transcription:
             else:
                 a = pr.initial_values.get(n, 0.0)
                 W[r] = a + (pr.final_values.get(n, a) - a) * self.fractions
-        return self._pack(X, None, np.zeros((lay.nc, lay.n_points)), W, pr.t_final)
+        return self._pack(X, np.zeros((lay.nc, lay.n_points)), W, pr.t_final)
 
     def guess_from(self, solution: OCPSolution) -> np.ndarray:
         """A start for this transcription from a solution of the same problem on another mesh
@@ -351,24 +351,23 @@ class Transcription:
         X = np.array([solution.interpolate(n, t) for n in names])
         L = np.array([solution.interpolate(f"{c}.lambda", t) for c in self.eqs.constraint_names]).reshape(self.layout.nc, -1)
         W = np.array([solution.interpolate(n, t) for n in pr.model.inputs]).reshape(self.layout.n_in, -1)
-        return self._pack(X, None, L, W, solution.t_final)
+        return self._pack(X, L, W, solution.t_final)
 
-    def _pack(self, X, A, L, W, t_final: float) -> np.ndarray:
-        """The decision vector of these blocks; positions projected onto ``phi = 0``, ``A``
-        (if None) from the speeds by finite differences, slacks zero."""
+    def _pack(self, X, L, W, t_final: float) -> np.ndarray:
+        """The decision vector of these blocks; positions projected onto ``phi = 0``,
+        accelerations from the speeds by finite differences, slacks zero."""
         e, lay = self.eqs, self.layout
         t = self.fractions * t_final
         for i in range(lay.n_points):
             X[: e.nq, i] = project_positions(e, X[: e.nq, i], t[i], inputs=W[:, i])
-        if A is None:
-            A = np.gradient(X[e.nq :], t, axis=1) if lay.n_points > 1 else np.zeros((e.nu, 1))
+        A = np.gradient(X[e.nq :], t, axis=1) if lay.n_points > 1 else np.zeros((e.nu, 1))
         parts = [X.ravel(order="F"), A[:, : lay.n_acc].ravel(order="F"), L.ravel(order="F"), W.ravel(order="F"),
                  np.zeros(lay.nh * (lay.n_points - 1)), np.array([t_final] if lay.free_time else [])]
         return np.concatenate(parts)
 
-    def accelerations(self, w: np.ndarray, t_final: float) -> np.ndarray:
-        """``u'`` at every point (``nu x P``): the variables, or from the speeds where the scheme gives them."""
-        X, A = (np.asarray(b, float) for b in self.layout.split(w)[:2])
+    def accelerations(self, X: np.ndarray, A: np.ndarray, t_final: float) -> np.ndarray:
+        """``u'`` at every point (``nu x P``) from the state and acceleration blocks of a
+        decision vector: the variables, or from the speeds where the scheme gives them."""
         C = self.accelerations_from_speeds
         if C is None:
             return A

@@ -349,7 +349,7 @@ def _move_into_place(tmp: Path, out: Path) -> None:
         shutil.rmtree(old, ignore_errors=True)
 
 
-def _write_folder(report: ExportReport, eqs: SystemEquations, folder: Path) -> None:
+def _write_folder(report: ExportReport, folder: Path) -> None:
     p = report.prefix
     cg = ca.CodeGenerator(f"{p}_casadi", {"with_header": True, "casadi_real": "double"})
     for fn in report.functions:
@@ -360,7 +360,7 @@ def _write_folder(report: ExportReport, eqs: SystemEquations, folder: Path) -> N
     source.write_text(code)
     for fn in report.functions:
         fn.code_bytes, fn.code_lines = _kernel_size(code, fn.casadi_name)
-    texts = {f"{p}_constraints.h": _header(report, eqs), f"{p}_constraints.c": _wrappers(report),
+    texts = {f"{p}_constraints.h": _header(report), f"{p}_constraints.c": _wrappers(report),
              f"{p}_example.c": _example(report), "Makefile": _makefile(report), "CMakeLists.txt": _cmakelists(report)}
     for name, text in texts.items():
         (folder / name).write_text(text)
@@ -422,7 +422,7 @@ def export_model_c(eqs: SystemEquations, out_dir: str | Path, name: str, sample:
     out, tmp = _staging_folder(out_dir)
     try:
         report.out_dir = tmp
-        _write_folder(report, eqs, tmp)
+        _write_folder(report, tmp)
         if verify:
             report.round_trip = verify_export(report, n_states=n_states, seed=seed)
             (tmp / MANIFEST).write_text(json.dumps(report.to_dict(), indent=2) + "\n")

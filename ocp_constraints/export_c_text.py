@@ -12,7 +12,6 @@ import casadi as ca
 import numpy as np
 
 if TYPE_CHECKING:
-    from .equations import SystemEquations
     from .export import Block, Entry, ExportedFunction, ExportReport
 
 C_FLAGS = ("-Wall", "-Wextra", "-Werror", "-O2")
@@ -51,7 +50,7 @@ def _c_params(report: ExportReport, fn: ExportedFunction) -> str:
     return ", ".join(out)
 
 
-def _header(report: ExportReport, eqs: SystemEquations) -> str:
+def _header(report: ExportReport) -> str:
     p, P = report.prefix, report.prefix.upper()
     params = ", ".join(f"{k} = {float(v)!r}" for k, v in report.parameters.items()) or "none"
     L = [f"/* {p}_constraints.h: constraint functions of the scene '{report.scene}', exported by ocp_constraints.",

@@ -180,7 +180,7 @@ def run_inverse_dynamics(model_path, motion_path, grf_path, start: float | None 
     fp = np.asarray(foot_fn.map(len(tg))(Pg.T)).T
     feet = {s: (fp[:, 6 * i:6 * i + 3], fp[:, 6 * i + 3:6 * i + 6]) for i, s in enumerate(legs)}
     window_plates = [Plate(p.name, p.force[in_window], p.point[in_window], p.torque[in_window], p.columns) for p in plates]
-    assigned = assign_plates(window_plates, tg, feet, up, str(grf.path))
+    assigned = assign_plates(window_plates, feet, up, str(grf.path))
     fext = np.zeros((N, 6 * nb))
     for pl in plates:
         if pl.name not in assigned:

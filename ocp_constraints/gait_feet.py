@@ -58,12 +58,12 @@ def _depth(osim: OsimModel, body: str) -> int:
     return 1 + max((_depth(osim, k) for k in kids), default=0)
 
 
-def assign_plates(plates: list[Plate], t_grf: np.ndarray, feet: dict[str, tuple[np.ndarray, np.ndarray]],
+def assign_plates(plates: list[Plate], feet: dict[str, tuple[np.ndarray, np.ndarray]],
                   up: np.ndarray, where: str) -> dict[str, str]:
     """Which foot stands on each loaded plate: ``plate -> side``.
 
     ``feet[side]`` holds the heel (hindfoot origin) and toe positions (samples x 3, at
-    ``t_grf``); the plate goes to the foot whose heel-toe segment is nearest (horizontal
+    the plates' samples); the plate goes to the foot whose heel-toe segment is nearest (horizontal
     distance, median over the loaded samples) to the centre of pressure.
     """
     out = {}

@@ -35,9 +35,9 @@ class OCPSolution:
     @classmethod
     def from_vector(cls, tr, w: np.ndarray, stats: dict, objective: float, wall_time: dict) -> "OCPSolution":
         lay = tr.layout
-        X, _, L, W, _, T = (np.asarray(a) for a in lay.split(w))
+        X, A, L, W, _, T = (np.asarray(a, float) for a in lay.split(w))
         t_final = float(T[0]) if lay.free_time else float(tr.problem.t_final)
-        D = tr.accelerations(w, t_final)
+        D = tr.accelerations(X, A, t_final)
         t = tr.fractions * t_final
         eqs = tr.eqs
         traj = Trajectory(eqs)

@@ -114,3 +114,25 @@ def physics_whirling_varying_3s():
     traj = simulate(eqs, q0, u0, 3.0)
     return scene, eqs, traj
 
+
+
+# -- optimal-control problems shared by several test modules ---------------------------------
+def minimum_time_swing_up():
+    """The swing-up with free final time in [0.5, 4] s, |torque| <= 5, minimum time."""
+    import numpy as np
+
+    from ocp_constraints.ocp import OptimalControlProblem
+    from ocp_constraints.scenes import build_task
+
+    _, base = build_task("pendulum", "swing_up")
+    problem = OptimalControlProblem(base.model, t_final=2.0, t_final_bounds=(0.5, 4.0))
+    problem.bound("motor", -5.0, 5.0)
+    problem.initial({"rod.psi": 0.0, "rod.psi_dot": 0.0})
+    problem.final({"rod.psi": np.pi, "rod.psi_dot": 0.0})
+    problem.minimize_final_time()
+    return base, problem
+
+
+@pytest.fixture
+def ocp_minimum_time_swing_up():
+    return minimum_time_swing_up()

@@ -367,7 +367,7 @@ def test_power_identity_holds_for_every_joint(compiled_cases, name, seed):
                 assert abs(power - sum(terms)) <= 1e-13 * scale
 
 
-def test_revolute_about_a_tilted_axis_has_moments_normal_to_it(indep_kinematics):
+def test_revolute_about_a_tilted_axis_has_moments_normal_to_it():
     """Revolute about ``n = (1, 2, 2)/3``: ``h_4, h_5`` orthonormal, normal to ``n``; forces ``E_k``."""
     m = Model("tilted")
     b = m.add_body("rod", 1.0, J_B, rotation="321")
@@ -385,7 +385,7 @@ def test_revolute_about_a_tilted_axis_has_moments_normal_to_it(indep_kinematics)
     assert np.abs(np.cross(h4, h5) - n).max() <= 1e-15  # (a1, a2, n) right-handed
 
 
-def test_derive_prescription_of_a_sliding_contact_is_normal_force_without_moment(indep_kinematics):
+def test_derive_prescription_of_a_sliding_contact_is_normal_force_without_moment():
     """``derive_prescription`` of ``E3 . v_P`` gives ``e = 0``, ``f = E3``, ``h = 0`` at X_P (Table 1)."""
     m = Model("derive")
     disk, P = _disk(m)

@@ -428,7 +428,7 @@ def test_real_compiler_error_is_reported_verbatim(exported, monkeypatch):
 def test_failure_while_writing_leaves_no_half_written_folder(tmp_path, monkeypatch):
     import ocp_constraints.export as export
 
-    def broken(report):
+    def broken(_report):
         raise RuntimeError("disk full (simulated)")
 
     monkeypatch.setattr(export, "_example", broken)

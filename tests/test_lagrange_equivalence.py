@@ -156,15 +156,16 @@ def _compare_at(eqs, lag, q, u, t, udot_lib=None, lam_lib=None):
     return err_qdd, err_lam, err_phi
 
 
+def _max_error_along(eqs, lag, traj, every: int) -> float:
+    """Largest of the ``_compare_at`` errors at every ``every``-th sample of a simulated run."""
+    return float(np.max([_compare_at(eqs, lag, traj.q[k], traj.u[k], traj.t[k], traj.udot[k], traj.lam[k])
+                         for k in range(0, len(traj), every)]))
+
+
 def test_sliding_disk_newton_euler_equals_lagrange_along_simulated_motion(physics_sliding_disk_10s, indep_kinematics):
     """Along the 10 s sliding-disk run: same ``q''`` and the same normal-force multiplier."""
     scene, eqs, traj = physics_sliding_disk_10s
-    lag = _disk_lagrangian(indep_kinematics, scene.model.parameters)
-    errs = [
-        _compare_at(eqs, lag, traj.q[k], traj.u[k], traj.t[k], traj.udot[k], traj.lam[k])
-        for k in range(0, len(traj), 25)
-    ]
-    assert np.max(errs) <= TOL
+    assert _max_error_along(eqs, _disk_lagrangian(indep_kinematics, scene.model.parameters), traj, 25) <= TOL
 
 
 def test_sliding_disk_newton_euler_equals_lagrange_at_random_states(indep_kinematics):
@@ -186,12 +187,7 @@ def test_whirling_newton_euler_equals_lagrange_along_simulated_motion(physics_wh
     """Whirling body with ``Omega(t) = 2 + 0.5 sin(t)``: same ``q''`` and the same five multipliers."""
     scene, eqs, traj = physics_whirling_varying_3s
     assert eqs.constraint_names == ["shaft.v1", "shaft.v2", "shaft.v3", "shaft.drive", "shaft.lock"]
-    lag = _whirling_lagrangian(indep_kinematics, scene.model.parameters)
-    errs = [
-        _compare_at(eqs, lag, traj.q[k], traj.u[k], traj.t[k], traj.udot[k], traj.lam[k])
-        for k in range(0, len(traj), 15)
-    ]
-    assert np.max(errs) <= TOL
+    assert _max_error_along(eqs, _whirling_lagrangian(indep_kinematics, scene.model.parameters), traj, 15) <= TOL
 
 
 def test_whirling_newton_euler_equals_lagrange_at_random_states(indep_kinematics):

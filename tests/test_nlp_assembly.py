@@ -10,7 +10,6 @@ import pytest
 
 from ocp_constraints.collocation import Transcription
 from ocp_constraints.nlp_assembly import BlockNLP, element
-from ocp_constraints.ocp import OptimalControlProblem
 from ocp_constraints.scenes import build_task
 from ocp_constraints.transcription import HermiteSimpson, Radau, Trapezoidal
 
@@ -51,17 +50,6 @@ def test_shared_and_repeated_variables_add_up_and_fixed_zeros_drop_out():
     _assert_derivatives_agree(nlp, np.random.default_rng(1).standard_normal(6))
 
 
-def _min_time_pendulum():
-    _, base = build_task("pendulum", "swing_up")
-    problem = OptimalControlProblem(base.model, t_final=2.0, t_final_bounds=(0.5, 4.0))
-    problem.bound("motor", -5.0, 5.0)
-    problem.initial({"rod.psi": 0.0, "rod.psi_dot": 0.0})
-    problem.final({"rod.psi": np.pi, "rod.psi_dot": 0.0})
-    problem.minimize_final_time()
-    problem.minimize_effort(weight=0.1)
-    return problem
-
-
 @pytest.mark.parametrize("task, scheme", [
     (("pendulum", "swing_up"), Trapezoidal(4)),
     (("pendulum", "swing_up"), HermiteSimpson(3)),
@@ -71,8 +59,12 @@ def _min_time_pendulum():
     (("rolling_disk", "drive"), HermiteSimpson(3)),     # friction-cone path constraints
     ("min_time", Radau(3, degree=2)),                   # free final time in every element
 ])
-def test_transcription_derivatives_match_whole_graph_ad(task, scheme):
-    problem = _min_time_pendulum() if task == "min_time" else build_task(*task)[1]
+def test_transcription_derivatives_match_whole_graph_ad(task, scheme, request):
+    if task == "min_time":
+        _, problem = request.getfixturevalue("ocp_minimum_time_swing_up")
+        problem.minimize_effort(weight=0.1)  # a cost term besides the final time
+    else:
+        problem = build_task(*task)[1]
     tr = Transcription(problem, scheme)
     x = tr.initial_guess()
     x = x + 0.1 * np.random.default_rng(2).standard_normal(x.size)  # away from the guess's symmetries

@@ -144,15 +144,10 @@ def test_user_mesh_is_used():
     assert np.allclose(sol.transcription.scheme.mesh_fractions * 2.0, sol.t[::2])
 
 
-def test_free_final_time_minimum_time_swing_up_is_bang_bang():
+def test_free_final_time_minimum_time_swing_up_is_bang_bang(ocp_minimum_time_swing_up):
     # Minimum time with a bounded torque entering affinely: Pontryagin's principle makes the
     # torque sit on its bounds (bang-bang) except at switches.
-    _, base = build_task("pendulum", "swing_up")
-    problem = OptimalControlProblem(base.model, t_final=2.0, t_final_bounds=(0.5, 4.0))
-    problem.bound("motor", -5.0, 5.0)
-    problem.initial({"rod.psi": 0.0, "rod.psi_dot": 0.0})
-    problem.final({"rod.psi": np.pi, "rod.psi_dot": 0.0})
-    problem.minimize_final_time()
+    base, problem = ocp_minimum_time_swing_up
     problem.set_guess("rod.psi", lambda t: np.pi * t / 2 - np.sin(np.pi * t / 2))
     sol = problem.solve(Radau(30, degree=3))
     assert sol.success and 0.5 < sol.t_final < 2.0 and sol.objective == pytest.approx(sol.t_final)

@@ -60,32 +60,29 @@ def _write(tmp_path, name, text):
     return p
 
 
-def test_new_style_header_and_malformed_files(tmp_path):
+def test_new_style_header(tmp_path):
     ok = _write(tmp_path, "new.sto", "DataType=double\nversion=3\ninDegrees=yes\nendheader\n"
                 "time\tknee_angle_r\tpelvis_ty\n0\t90\t1\n0.1\t45\t1.1\n")
     m = read_motion(ok)
     assert m["knee_angle_r"].tolist() == pytest.approx([np.pi / 2, np.pi / 4])
     assert m["pelvis_ty"].tolist() == [1.0, 1.1]
 
-    bad = _write(tmp_path, "bad.mot", "version=1\nnRows=2\nnColumns=3\ninDegrees=no\nendheader\n"
-                 "time\ta\tb\n0\t1\t2\n0.1\tx1\t2\n")
-    with pytest.raises(DataFileError, match=r"bad\.mot, line 8, column 2: 'x1' in column 'a'"):
-        read_motion(bad)
-    short = _write(tmp_path, "short.mot", "endheader\ntime a b\n0 1 2\n0.1 1\n")
-    with pytest.raises(DataFileError, match=r"short\.mot, line 4, column 3: has 2 values"):
-        read_motion(short)
-    nan = _write(tmp_path, "nan.csv", "time,a\n0,1\n0.1,nan\n")
-    with pytest.raises(DataFileError, match=r"nan\.csv, line 3, column 2: value of 'a' at t = 0.1 is nan"):
-        read_motion(nan)
-    rows = _write(tmp_path, "rows.mot", "nRows=5\nendheader\ntime a\n0 1\n")
-    with pytest.raises(DataFileError, match="nRows=5 but the file has 1"):
-        read_motion(rows)
-    noend = _write(tmp_path, "noend.mot", "time a\n0 1\n")
-    with pytest.raises(DataFileError, match="no 'endheader'"):
-        read_motion(noend)
-    back = _write(tmp_path, "back.mot", "endheader\ntime a\n0 1\n0.2 1\n0.1 1\n")
-    with pytest.raises(DataFileError, match=r"line 5, column 1: time is not strictly increasing"):
-        read_motion(back)
+
+@pytest.mark.parametrize("name, text, message", [
+    ("bad.mot", "version=1\nnRows=2\nnColumns=3\ninDegrees=no\nendheader\ntime\ta\tb\n0\t1\t2\n0.1\tx1\t2\n",
+     r"bad\.mot, line 8, column 2: 'x1' in column 'a'"),
+    ("short.mot", "endheader\ntime a b\n0 1 2\n0.1 1\n", r"short\.mot, line 4, column 3: has 2 values"),
+    ("nan.csv", "time,a\n0,1\n0.1,nan\n", r"nan\.csv, line 3, column 2: value of 'a' at t = 0.1 is nan"),
+    ("rows.mot", "nRows=5\nendheader\ntime a\n0 1\n", "nRows=5 but the file has 1"),
+    ("noend.mot", "time a\n0 1\n", "no 'endheader'"),
+    ("back.mot", "endheader\ntime a\n0 1\n0.2 1\n0.1 1\n", r"line 5, column 1: time is not strictly increasing"),
+])
+def test_malformed_motion_file_is_an_error_naming_file_line_and_column(tmp_path, name, text, message):
+    with pytest.raises(DataFileError, match=message):
+        read_motion(_write(tmp_path, name, text))
+
+
+def test_malformed_grf_and_missing_files(tmp_path):
     grf = _write(tmp_path, "grf.mot", "endheader\ntime ground_force_vx ground_force_vy\n0 1 2\n")
     with pytest.raises(DataFileError, match="missing column"):
         grf_plates(read_grf(grf))
