@@ -9,7 +9,7 @@ import sys
 import tempfile
 from pathlib import Path
 
-from ocp_constraints.export import export_c
+from ocp_constraints import export_c
 
 out = Path(sys.argv[1]) if len(sys.argv) > 1 else Path(tempfile.mkdtemp()) / "rolling_disk_c"
 report = export_c("rolling_disk", out, verify=True, n_states=200)

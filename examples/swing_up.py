@@ -8,9 +8,7 @@ import math
 import casadi as ca
 import numpy as np
 
-from ocp_constraints import Model, joints
-from ocp_constraints.ocp import OptimalControlProblem
-from ocp_constraints.transcription import Radau  # or Trapezoidal(N), HermiteSimpson(N)
+from ocp_constraints import joints, Model, OptimalControlProblem, Radau  # or Trapezoidal(N), HermiteSimpson(N)
 
 # A uniform rod (1 kg, 1 m) hinged at one end at the origin, swinging in the E1-E2 plane.
 model = Model("rod", gravity=(0.0, -9.81, 0.0))

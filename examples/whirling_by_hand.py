@@ -6,8 +6,7 @@ The built-in scene `problems/whirling.py` does the same with the joint library.
 import casadi as ca
 import numpy as np
 
-from ocp_constraints import Model, SystemEquations, consistent_state, simulate
-from ocp_constraints.rotations import EulerSequence
+from ocp_constraints import consistent_state, EulerSequence, Model, simulate, SystemEquations
 
 model = Model("whirling", gravity=(0, 0, -9.81))
 body = model.add_body(

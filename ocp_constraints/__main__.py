@@ -1,6 +1,6 @@
 """``python -m ocp_constraints ...`` is the ``ocp-constraints`` command."""
 import sys
 
-from .cli import main
+from .cli.main import main
 
 sys.exit(main())

@@ -1,4 +1,8 @@
-"""Errors raised by the toolkit: each names the offending thing and what to do."""
+"""Every error the toolkit raises on purpose, in one place: each names the offending thing and what to do.
+
+One base class, :class:`OcpConstraintsError`; a bad input is also a ``ValueError``, a run that did not
+succeed also a ``RuntimeError``. The CLI prints any of them as one line (exit 2 for bad input, 1 for a
+run that stopped)."""
 from __future__ import annotations
 
 
@@ -32,3 +36,70 @@ class SimulationError(OcpConstraintsError, RuntimeError):
     def __init__(self, message: str, partial=None):
         super().__init__(message)
         self.partial = partial
+
+
+class SingularConfigurationError(ModelError):
+    """An Euler-angle parameterization is at (or too near) its singularity."""
+
+
+# -- optimal control
+
+class OCPSolveError(OcpConstraintsError, RuntimeError):
+    """IPOPT did not converge; ``solution`` holds the last iterate (``success`` False)."""
+
+    def __init__(self, message: str, solution):
+        super().__init__(message)
+        self.solution = solution
+
+
+# -- C export
+
+class ExportError(OcpConstraintsError):
+    """The C export cannot be written, built or verified."""
+
+
+class CompilerNotFoundError(ExportError):
+    """No C compiler: ``$CC`` names a program that does not exist, or none is installed."""
+
+
+class CompilerError(ExportError):
+    """The C compiler failed; the message includes the compiler's own output."""
+
+
+class RoundTripError(ExportError):
+    """The compiled code disagrees with the CasADi evaluation."""
+
+
+# -- biomechanics: files, models, gait and knee
+
+class DataFileError(OcpConstraintsError, ValueError):
+    """A data file is missing, malformed, or does not hold what is asked of it."""
+
+    def __init__(self, path, message: str, line: int | None = None, column: int | None = None):
+        where = str(path)
+        if line is not None:
+            where += f", line {line}"
+        if column is not None:
+            where += f", column {column}"
+        super().__init__(f"{where}: {message}")
+        self.path, self.line, self.column = str(path), line, column
+
+
+class OsimModelError(ModelError):
+    """An .osim file is unreadable or uses a feature this reader does not support."""
+
+
+class GaitError(OcpConstraintsError, ValueError):
+    """A trial cannot be processed: inconsistent files, unknown coordinates, no foot on a plate."""
+
+
+class MuscleDataError(OcpConstraintsError, ValueError):
+    """A muscle-path data file or a model's muscle parameters are missing or unusable."""
+
+
+class ImplantGeometryError(OcpConstraintsError, ValueError):
+    """The implant mesh files are missing or unusable."""
+
+
+class KneeError(OcpConstraintsError, ValueError):
+    """A knee-load computation cannot run: bad files, missing coordinates, solver failure."""

@@ -5,8 +5,7 @@ import math
 
 import casadi as ca
 
-from ocp_constraints.bodies import Body, Point
-from ocp_constraints.model import Model
+from ocp_constraints import Body, Model, Point
 
 
 def add_disk(model: Model, mass: float, radius: float) -> tuple[Body, Point]:

@@ -23,11 +23,7 @@ import numpy as np
 
 import casadi as ca
 
-from ocp_constraints import joints
-from ocp_constraints.model import Model
-from ocp_constraints.ocp import OptimalControlProblem
-from ocp_constraints.rotations import EulerSequence, quaternion_from_rotation
-from ocp_constraints.scenes import Scene
+from ocp_constraints import EulerSequence, joints, Model, OptimalControlProblem, quaternion_from_rotation, Scene
 
 DESCRIPTION = "two-body chain on ball-and-socket joints (sec. 6): equal and opposite joint forces"
 

@@ -1,6 +1,6 @@
 """Knee (paper sec. 6, Figs. 7-8): the tibia on the held femur, condyle contact forces N_medial, N_lateral.
 
-A thin scene over :mod:`ocp_constraints.knee_model` (bodies, constraints, the 3-2-1
+A thin scene over :mod:`ocp_constraints.biomech.knee_model` (bodies, constraints, the 3-2-1
 angles of the tibia relative to the femur and their mapping onto the JW model's knee
 coordinates are documented there). The femoral component is held; the tibial tray
 hangs below it (gravity along ``+E1``, distal) and is pressed onto both condyles by an
@@ -14,8 +14,8 @@ from __future__ import annotations
 
 import math
 
-from ocp_constraints.knee_model import coordinates, default_parameters, knee_model, seated_pose
-from ocp_constraints.scenes import Scene
+from ocp_constraints import Scene
+from ocp_constraints.biomech.knee_model import coordinates, default_parameters, knee_model, seated_pose
 
 DESCRIPTION = "knee (sec. 6): tibia on the held femur, condyle contact forces N_medial, N_lateral (moment along g_2)"
 DEFAULTS = default_parameters()

@@ -16,10 +16,7 @@ import math
 import casadi as ca
 import numpy as np
 
-from ocp_constraints import joints
-from ocp_constraints.model import Model
-from ocp_constraints.ocp import OptimalControlProblem
-from ocp_constraints.scenes import Scene
+from ocp_constraints import joints, Model, OptimalControlProblem, Scene
 
 DESCRIPTION = "tilted rod on a revolute joint (sec. 3.1): hinge force and two constraint moments"
 

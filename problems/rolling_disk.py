@@ -13,10 +13,7 @@ import math
 
 import casadi as ca
 
-from ocp_constraints import joints
-from ocp_constraints.model import Model
-from ocp_constraints.ocp import OptimalControlProblem
-from ocp_constraints.scenes import Scene
+from ocp_constraints import joints, Model, OptimalControlProblem, Scene
 
 from ._disk import add_disk, disk_coordinates
 

@@ -14,9 +14,7 @@ from __future__ import annotations
 
 import math
 
-from ocp_constraints import joints
-from ocp_constraints.model import Model
-from ocp_constraints.scenes import Scene
+from ocp_constraints import joints, Model, Scene
 
 DESCRIPTION = "cylinder on a smooth plane (sec. 3.2): normal force and the moment keeping it flat"
 

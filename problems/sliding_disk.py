@@ -10,9 +10,7 @@ theta' = 0.4, phi' = -12.0.
 """
 from __future__ import annotations
 
-from ocp_constraints import joints
-from ocp_constraints.model import Model
-from ocp_constraints.scenes import Scene
+from ocp_constraints import joints, Model, Scene
 
 from ._disk import add_disk, disk_coordinates
 

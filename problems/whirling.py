@@ -20,11 +20,7 @@ import math
 import casadi as ca
 import numpy as np
 
-from ocp_constraints import joints
-from ocp_constraints.model import Model
-from ocp_constraints.ocp import OptimalControlProblem
-from ocp_constraints.rotations import EulerSequence
-from ocp_constraints.scenes import Scene
+from ocp_constraints import EulerSequence, joints, Model, OptimalControlProblem, Scene
 
 DESCRIPTION = "body hinged to a shaft driven at Omega(t) (sec. 3.4): motor torque and power"
 

@@ -1,8 +1,8 @@
 """RMS tables of issue 6 (gait2354 subject01, JW ngait_og5) and wall times, files to results."""
 import time
 from pathlib import Path
-from ocp_constraints.gait import compare, run_inverse_dynamics
-from ocp_constraints.opensim_io import read_forces
+from ocp_constraints.biomech.gait import compare, run_inverse_dynamics
+from ocp_constraints.biomech.opensim_files import read_forces
 ROOT = Path(__file__).resolve().parents[1]
 D = ROOT.parent / "shared" / "data"; G = D / "opensim-gait2354-subject01"; J = D / "grand-challenge-knee-jw"
 O46 = ROOT / "tests" / "data" / "gait2354_subject01_id_opensim46.sto"

@@ -4,15 +4,19 @@
 
 Reads ``femPoints_188.csv``, ``tibPoints_100.csv``, ``facesTib{1,2}_100.csv`` from
 ``../shared/data/grand-challenge-knee-jw/workshop_bcn2024/ExperimentalData`` (see
-:func:`ocp_constraints.knee_contact.implant_geometry`) and writes
-``ocp_constraints/data/jw_knee_implant_geometry.json``.
+:func:`ocp_constraints.biomech.knee_contact.implant_geometry`) and writes
+``ocp_constraints/biomech/data/jw_knee_implant_geometry.json``.
 """
 import json
+from pathlib import Path
 
-from ocp_constraints.knee_contact import GEOMETRY_FILE, IMPLANT_DIR, implant_geometry
+from ocp_constraints.biomech.knee_contact import GEOMETRY_FILE, implant_geometry
+
+IMPLANT_DIR = (Path(__file__).resolve().parents[2] / "shared" / "data" / "grand-challenge-knee-jw" / "workshop_bcn2024"
+               / "ExperimentalData")
 
 if __name__ == "__main__":
-    g = implant_geometry()
+    g = implant_geometry(IMPLANT_DIR)
     data = {"source": "workshop_bcn2024/ExperimentalData (femPoints_188, tibPoints_100, facesTib1_100, facesTib2_100)",
             "frames": "femoral component (centres) and tibial tray (heights), JW model frames, m",
             "method": "least-squares circle per condyle (sagittal x-y plane, z = mean z of the distal points); "

@@ -2,7 +2,7 @@
 
 Runs ``knee_muscle_paths_opensim.py`` with the ``opensim`` package in its own process
 (OpenSim and CasADi clash in one process), fits the polynomials of
-:mod:`ocp_constraints.knee_muscles` and writes ``ocp_constraints/data/jw_knee_muscle_paths.json``
+:mod:`ocp_constraints.biomech.knee_muscles` and writes ``ocp_constraints/biomech/data/jw_knee_muscle_paths.json``
 (fits, OpenSim's moment arms on a knee sweep, hold-out accuracy), and the lengths of the
 quadriceps' muscle-tendon units (the model's ``<name>_withreallength`` paths ending on the
 patella; ``unit_fits``). Reproducible: fixed
@@ -17,7 +17,7 @@ from pathlib import Path
 
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
-from ocp_constraints.knee_muscles import DATA_FILE, fit_paths, fit_units  # noqa: E402
+from ocp_constraints.biomech.knee_muscles import DATA_FILE, fit_paths, fit_units  # noqa: E402
 
 MODEL = ROOT.parent / "shared" / "data" / "grand-challenge-knee-jw" / "reducepoly_model" / \
     "JW_All_Body_Model-scaled_forvisualization_leftright_v42.osim"

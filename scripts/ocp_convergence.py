@@ -5,8 +5,8 @@ Run: python scripts/ocp_convergence.py
 """
 import numpy as np
 
-from ocp_constraints.scenes import build_task
-from ocp_constraints.transcription import HermiteSimpson, Radau, Trapezoidal
+from ocp_constraints.scenes.registry import build_task
+from ocp_constraints.ocp.schemes import HermiteSimpson, Radau, Trapezoidal
 
 _, problem = build_task("pendulum", "swing_up")
 reference = problem.solve(Radau(160, degree=5))

@@ -8,8 +8,8 @@ Run: python scripts/radau_acceleration_variables.py
 """
 import statistics
 
-from ocp_constraints.scenes import build_task
-from ocp_constraints.transcription import Radau
+from ocp_constraints.scenes.registry import build_task
+from ocp_constraints.ocp.schemes import Radau
 
 
 def per_iteration_ms(degree: int, from_speeds: bool) -> tuple[float, int, float]:

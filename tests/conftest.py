@@ -16,10 +16,10 @@ from types import SimpleNamespace
 import casadi as ca
 import pytest
 
-from ocp_constraints.equations import SystemEquations
-from ocp_constraints.scenes import build_scene
-from ocp_constraints.simulate import simulate
-from ocp_constraints.state import consistent_state
+from ocp_constraints.mechanics.equations import SystemEquations
+from ocp_constraints.scenes.registry import build_scene
+from ocp_constraints.dynamics.simulate import simulate
+from ocp_constraints.mechanics.state import consistent_state
 
 
 # -- independent rotation kinematics ------------------------------------------------------
@@ -121,8 +121,8 @@ def minimum_time_swing_up():
     """The swing-up with free final time in [0.5, 4] s, |torque| <= 5, minimum time."""
     import numpy as np
 
-    from ocp_constraints.ocp import OptimalControlProblem
-    from ocp_constraints.scenes import build_task
+    from ocp_constraints.ocp.problem import OptimalControlProblem
+    from ocp_constraints.scenes.registry import build_task
 
     _, base = build_task("pendulum", "swing_up")
     problem = OptimalControlProblem(base.model, t_final=2.0, t_final_bounds=(0.5, 4.0))

@@ -10,7 +10,7 @@ import subprocess
 
 import pytest
 
-from ocp_constraints.cli import main
+from ocp_constraints.cli.main import main
 
 
 def read_header(path):
@@ -107,8 +107,8 @@ USER_SCENE = '''
 """A user's own scene: a point mass on a string (spherical pendulum)."""
 import casadi as ca
 from ocp_constraints import joints
-from ocp_constraints.model import Model
-from ocp_constraints.scenes import Scene
+from ocp_constraints.mechanics.model import Model
+from ocp_constraints.scenes.registry import Scene
 
 DESCRIPTION = "spherical pendulum"
 DEFAULTS = {"length": 0.7, "mass": 0.3}

@@ -11,10 +11,10 @@ import casadi as ca
 import numpy as np
 import pytest
 
-from ocp_constraints.equations import SystemEquations
-from ocp_constraints.scenes import build_scene
-from ocp_constraints.simulate import simulate
-from ocp_constraints.state import consistent_state
+from ocp_constraints.mechanics.equations import SystemEquations
+from ocp_constraints.scenes.registry import build_scene
+from ocp_constraints.dynamics.simulate import simulate
+from ocp_constraints.mechanics.state import consistent_state
 
 
 def _independent_rate_functions(indep_kinematics) -> ca.Function:

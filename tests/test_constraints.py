@@ -1,4 +1,4 @@
-"""Constraints and Lagrange's prescription for every joint of ``ocp_constraints.joints``.
+"""Constraints and Lagrange's prescription for every joint of ``ocp_constraints.mechanics.joints``.
 
 For each joint type a small model is built (Euler and quaternion bodies). Each case also
 writes, *independently* of the library (hand-written rotation tensors, eq. (11) dual
@@ -26,15 +26,15 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from ocp_constraints import joints
-from ocp_constraints.bodies import Body
-from ocp_constraints.constraints import derive_prescription
-from ocp_constraints.equations import SystemEquations
+from ocp_constraints.mechanics.bodies import Body
+from ocp_constraints.mechanics.constraints import derive_prescription
+from ocp_constraints.mechanics.equations import SystemEquations
 from ocp_constraints.errors import ModelError, NonAffineConstraintError, RedundantConstraintsError
-from ocp_constraints.model import Model
-from ocp_constraints.rotations import UnitQuaternion
-from ocp_constraints.scenes import build_scene
-from ocp_constraints.simulate import simulate
-from ocp_constraints.state import consistent_state
+from ocp_constraints.mechanics.model import Model
+from ocp_constraints.mechanics.rotations import UnitQuaternion
+from ocp_constraints.scenes.registry import build_scene
+from ocp_constraints.dynamics.simulate import simulate
+from ocp_constraints.mechanics.state import consistent_state
 
 E1, E2, E3 = (ca.DM(v) for v in np.eye(3))
 E = [E1, E2, E3]
@@ -665,7 +665,7 @@ def test_dual_basis_joints_on_a_quaternion_body_are_rejected_naming_the_body():
 
 
 def test_inertia_breaking_the_triangle_inequality_needs_check_inertia_false():
-    from ocp_constraints.bodies import Body
+    from ocp_constraints.mechanics.bodies import Body
 
     J = np.diag([8.1e-5, 1.6e-4, 8.1e-4])          # JW's toes: 8.1e-4 > 8.1e-5 + 1.6e-4
     with pytest.raises(ModelError, match=r"toes.*not physical.*check_inertia=False"):

@@ -20,16 +20,15 @@ import casadi as ca
 import numpy as np
 import pytest
 
-from ocp_constraints.equations import SystemEquations
+from ocp_constraints.mechanics.equations import SystemEquations
 from ocp_constraints.errors import OcpConstraintsError
-from ocp_constraints.export import (
-    CompilerError, CompilerNotFoundError, ExportError, RoundTripError, add_export_parser, build_export, export_c,
-    export_model_c, find_compiler, verify_export,
-)
-from ocp_constraints.inverse import InverseDynamics
-from ocp_constraints.scenes import build_scene, builtin_scene_names
-from ocp_constraints.simulate import SimulationOptions, simulate
-from ocp_constraints.state import consistent_state
+from ocp_constraints.codegen.export import build_export, export_c, export_model_c, find_compiler, verify_export
+from ocp_constraints.errors import CompilerError, CompilerNotFoundError, ExportError, RoundTripError
+from ocp_constraints.cli.export import add_export_parser
+from ocp_constraints.dynamics.inverse import InverseDynamics
+from ocp_constraints.scenes.registry import build_scene, builtin_scene_names
+from ocp_constraints.dynamics.simulate import SimulationOptions, simulate
+from ocp_constraints.mechanics.state import consistent_state
 
 SCENES = builtin_scene_names()
 
@@ -40,9 +39,9 @@ import math
 import casadi as ca
 import numpy as np
 from ocp_constraints import joints
-from ocp_constraints.model import Model
-from ocp_constraints.rotations import EulerSequence
-from ocp_constraints.scenes import Scene
+from ocp_constraints.mechanics.model import Model
+from ocp_constraints.mechanics.rotations import EulerSequence
+from ocp_constraints.scenes.registry import Scene
 
 DESCRIPTION = "whirling body, drive Omega(t) = 2 + 0.5 sin t, brake torque input about E1"
 DEFAULTS = {"brake": 0.3}
@@ -426,7 +425,7 @@ def test_real_compiler_error_is_reported_verbatim(exported, monkeypatch):
 
 
 def test_failure_while_writing_leaves_no_half_written_folder(tmp_path, monkeypatch):
-    import ocp_constraints.export as export
+    import ocp_constraints.codegen.export as export
 
     def broken(_report):
         raise RuntimeError("disk full (simulated)")

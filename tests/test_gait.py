@@ -15,8 +15,12 @@ import numpy as np
 import pytest
 
 from ocp_constraints.errors import OcpConstraintsError
-from ocp_constraints.gait import GaitError, add_gait_parser, cli_gait, compare, run_inverse_dynamics
-from ocp_constraints.opensim_io import DataFileError, read_forces, read_grf
+from ocp_constraints.biomech.gait import compare, run_inverse_dynamics
+from ocp_constraints.errors import GaitError
+from ocp_constraints.cli.gait import add_gait_parser
+from ocp_constraints.cli.gait import cli_gait
+from ocp_constraints.biomech.opensim_files import read_forces, read_grf
+from ocp_constraints.errors import DataFileError
 
 DATA = Path(__file__).resolve().parents[2] / "shared" / "data"
 G = DATA / "opensim-gait2354-subject01"

@@ -9,7 +9,7 @@ import pytest
 
 from ocp_constraints import Model, SystemEquations, build_scene, joints
 from ocp_constraints.errors import ModelError
-from ocp_constraints.inverse import InverseDynamics
+from ocp_constraints.dynamics.inverse import InverseDynamics
 
 
 def test_sliding_cylinder_multipliers_match_eq_18_for_a_prescribed_motion():

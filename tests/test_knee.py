@@ -5,13 +5,14 @@ import casadi as ca
 import numpy as np
 import pytest
 
-from ocp_constraints.equations import SystemEquations
-from ocp_constraints import knee_model as km
-from ocp_constraints.knee_contact import IMPLANT_DIR, implant_geometry, stored_geometry
-from ocp_constraints.knee_muscles import MusclePaths, muscle_parameters
-from ocp_constraints.rotations import EulerSequence
+from ocp_constraints.mechanics.equations import SystemEquations
+from ocp_constraints.biomech import knee_model as km
+from ocp_constraints.biomech.knee_contact import implant_geometry, stored_geometry
+from ocp_constraints.biomech.knee_muscles import MusclePaths, muscle_parameters
+from ocp_constraints.mechanics.rotations import EulerSequence
 
 J = Path(__file__).resolve().parents[2] / "shared" / "data" / "grand-challenge-knee-jw"
+IMPLANT_DIR = J / "workshop_bcn2024" / "ExperimentalData"   # the implant meshes (STL)
 JW_MODEL = J / "reducepoly_model" / "JW_All_Body_Model-scaled_forvisualization_leftright_v42.osim"
 KNEE_MUSCLES = ["bflh", "bfsh", "grac", "recfem", "sart", "semimem", "semiten", "tfl", "vasint", "vaslat", "vasmed"]
 
@@ -130,7 +131,7 @@ def test_the_knee_scene_swings_on_compressed_condyles():
 def test_stored_implant_geometry_is_the_fit_of_the_meshes():
     if not IMPLANT_DIR.is_dir():
         pytest.fail(f"{IMPLANT_DIR} is missing")
-    fit = implant_geometry().as_params()
+    fit = implant_geometry(IMPLANT_DIR).as_params()
     stored = stored_geometry()
     assert fit.keys() == stored.keys()
     np.testing.assert_allclose([stored[k] for k in fit], [fit[k] for k in fit], rtol=1e-12, atol=1e-15)
@@ -138,14 +139,15 @@ def test_stored_implant_geometry_is_the_fit_of_the_meshes():
 
 @pytest.fixture(scope="module")
 def short_gait():
-    from ocp_constraints.gait import run_inverse_dynamics
+    from ocp_constraints.biomech.gait import run_inverse_dynamics
     t = np.linspace(2.3, 2.8, 12)
     return run_inverse_dynamics(JW_MODEL, J / "reducepoly_subject_GC" / "IK" / "IK_ngait_og5.mat",
                                 J / "reducepoly_subject_GC" / "GRF" / "GRF_ngait_og5.mat", times=t)
 
 
 def test_muscles_off_total_contact_equals_inverse_dynamics_reaction(short_gait):
-    from ocp_constraints.knee_static import contact_matrix_function, frame_data, solve_static
+    from ocp_constraints.biomech.knee_model import contact_matrix_function
+    from ocp_constraints.biomech.knee_static import frame_data, solve_static
     paths = MusclePaths()
     Qc, R, A = frame_data(short_gait, paths, contact_matrix_function())
     F0 = np.full(len(paths.muscles), 1000.0)
@@ -164,9 +166,9 @@ def test_muscles_off_total_contact_equals_inverse_dynamics_reaction(short_gait):
 
 def test_standing_frame_contact_is_the_weight_above_the_knee_plus_muscle_compression(tmp_path):
     """A static upright frame, half the body weight under each foot, the right CoP under the knee."""
-    from ocp_constraints.gait import run_inverse_dynamics
-    from ocp_constraints.knee_static import frame_data, solve_static
-    from ocp_constraints.osim_model import load_osim
+    from ocp_constraints.biomech.gait import run_inverse_dynamics
+    from ocp_constraints.biomech.knee_static import frame_data, solve_static
+    from ocp_constraints.biomech.osim_model import load_osim
 
     osim = load_osim(JW_MODEL)
     names = osim.coordinate_names

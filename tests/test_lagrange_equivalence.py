@@ -21,8 +21,8 @@ import math
 import casadi as ca
 import numpy as np
 
-from ocp_constraints.equations import SystemEquations
-from ocp_constraints.scenes import build_scene
+from ocp_constraints.mechanics.equations import SystemEquations
+from ocp_constraints.scenes.registry import build_scene
 
 TOL = 1e-9
 

@@ -9,9 +9,9 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from ocp_constraints.knee_hill import (active_force_length, force_velocity, hill_forces, passive_force_length,
+from ocp_constraints.biomech.knee_hill import (active_force_length, force_velocity, hill_forces, passive_force_length,
                                        scale_lengths)
-from ocp_constraints.knee_muscles import DATA_FILE, MusclePaths, muscle_parameters
+from ocp_constraints.biomech.knee_muscles import DATA_FILE, MusclePaths, muscle_parameters
 
 J = Path(__file__).resolve().parents[2] / "shared" / "data" / "grand-challenge-knee-jw"
 JW_MODEL = J / "reducepoly_model" / "JW_All_Body_Model-scaled_forvisualization_leftright_v42.osim"

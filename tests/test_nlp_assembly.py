@@ -8,10 +8,10 @@ import casadi as ca
 import numpy as np
 import pytest
 
-from ocp_constraints.collocation import Transcription
-from ocp_constraints.nlp_assembly import BlockNLP, element
-from ocp_constraints.scenes import build_task
-from ocp_constraints.transcription import HermiteSimpson, Radau, Trapezoidal
+from ocp_constraints.ocp.transcription import Transcription
+from ocp_constraints.ocp.nlp_assembly import BlockNLP, element
+from ocp_constraints.scenes.registry import build_task
+from ocp_constraints.ocp.schemes import HermiteSimpson, Radau, Trapezoidal
 
 
 def _whole_graph_derivatives(nlp: BlockNLP):

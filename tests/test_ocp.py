@@ -7,13 +7,13 @@ import numpy as np
 import pytest
 
 from ocp_constraints import build_scene
-from ocp_constraints.cli import main
+from ocp_constraints.cli.main import main
 from ocp_constraints.errors import ModelError
-from ocp_constraints.ocp import OptimalControlProblem
-from ocp_constraints.ocp_solution import OCPSolveError
-from ocp_constraints.scenes import build_task
-from ocp_constraints.tasks import simulate_scene
-from ocp_constraints.transcription import HermiteSimpson, Radau, Trapezoidal, scheme_from_name
+from ocp_constraints.ocp.problem import OptimalControlProblem
+from ocp_constraints.errors import OCPSolveError
+from ocp_constraints.scenes.registry import build_task
+from ocp_constraints.scenes.tasks import simulate_scene
+from ocp_constraints.ocp.schemes import HermiteSimpson, Radau, Trapezoidal, scheme_from_name
 
 
 @pytest.fixture(scope="module")
@@ -88,9 +88,10 @@ def test_ocp_loads_agree_with_pointwise_dynamics_and_the_gap_shrinks(swing_up):
 
 def test_second_solve_reuses_the_transcription(swing_up):
     first = swing_up.solve(Trapezoidal(20))
+    solver = first.transcription._solver
     second = swing_up.solve(Trapezoidal(20))
     assert second.transcription is first.transcription
-    assert second.wall_time["solver_setup"] < 0.05
+    assert second.transcription._solver is solver      # IPOPT's nlpsol object is not built again
     assert second.objective == pytest.approx(first.objective, rel=1e-9)
 
 

@@ -4,8 +4,8 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from ocp_constraints.scenes import build_task
-from ocp_constraints.transcription import Radau
+from ocp_constraints.scenes.registry import build_task
+from ocp_constraints.ocp.schemes import Radau
 
 
 def _energy(sol) -> np.ndarray:

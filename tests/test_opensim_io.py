@@ -5,8 +5,8 @@ import numpy as np
 import pytest
 
 from ocp_constraints.errors import OcpConstraintsError
-from ocp_constraints.opensim_io import (LBF_TO_N, DataFileError, grf_plates, read_forces, read_grf,
-                                        read_implant_loads, read_motion)
+from ocp_constraints.biomech.opensim_files import LBF_TO_N, grf_plates, read_forces, read_grf, read_implant_loads, read_motion
+from ocp_constraints.errors import DataFileError
 
 DATA = Path(__file__).resolve().parents[2] / "shared" / "data"
 G = DATA / "opensim-gait2354-subject01"

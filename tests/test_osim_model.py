@@ -5,7 +5,9 @@ import casadi as ca
 import numpy as np
 import pytest
 
-from ocp_constraints.osim_model import OsimModelError, load_osim, simm_spline
+from ocp_constraints.biomech.osim_functions import simm_spline
+from ocp_constraints.biomech.osim_model import load_osim
+from ocp_constraints.errors import OsimModelError
 
 DATA = Path(__file__).resolve().parents[2] / "shared" / "data"
 GAIT = DATA / "opensim-gait2354-subject01" / "subject01_simbody.osim"

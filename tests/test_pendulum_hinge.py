@@ -6,7 +6,7 @@ import math
 import numpy as np
 
 from ocp_constraints import build_scene
-from ocp_constraints.tasks import simulate_scene
+from ocp_constraints.scenes.tasks import simulate_scene
 
 
 def test_hinge_force_and_both_constraint_moments_match_the_balance_about_the_hinge():

@@ -4,8 +4,8 @@ from __future__ import annotations
 import numpy as np
 
 from ocp_constraints import SystemEquations, build_scene
-from ocp_constraints.rotations import EulerSequence, quaternion_from_rotation
-from ocp_constraints.tasks import simulate_scene
+from ocp_constraints.mechanics.rotations import EulerSequence, quaternion_from_rotation
+from ocp_constraints.scenes.tasks import simulate_scene
 
 
 def _run(quaternion: float, t_final: float):

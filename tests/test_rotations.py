@@ -16,15 +16,11 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 from scipy.spatial.transform import Rotation as SciRotation
 
-from ocp_constraints.equations import SystemEquations
-from ocp_constraints.model import Model
-from ocp_constraints.rotations import (
-    EulerSequence,
-    SingularConfigurationError,
-    UnitQuaternion,
-    quaternion_from_rotation,
-)
-from ocp_constraints.state import consistent_state
+from ocp_constraints.mechanics.equations import SystemEquations
+from ocp_constraints.mechanics.model import Model
+from ocp_constraints.mechanics.rotations import EulerSequence, UnitQuaternion, quaternion_from_rotation
+from ocp_constraints.errors import SingularConfigurationError
+from ocp_constraints.mechanics.state import consistent_state
 
 PROPER = ["121", "131", "212", "232", "313", "323"]
 TAIT_BRYAN = ["123", "132", "213", "231", "312", "321"]

@@ -7,8 +7,8 @@ from scipy.integrate import simpson
 
 from ocp_constraints import SystemEquations, build_scene, consistent_state, simulate
 from ocp_constraints.errors import SimulationError
-from ocp_constraints.scenes import builtin_scene_names
-from ocp_constraints.tasks import energy_balance
+from ocp_constraints.scenes.registry import builtin_scene_names
+from ocp_constraints.scenes.tasks import energy_balance
 
 CONSERVATIVE = ["pendulum", "sliding_cylinder", "sliding_disk", "rolling_disk", "ball_socket"]
 _cache: dict[str, object] = {}

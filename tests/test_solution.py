@@ -6,7 +6,7 @@ import pytest
 
 from ocp_constraints import build_scene
 from ocp_constraints.errors import ModelError
-from ocp_constraints.tasks import simulate_scene
+from ocp_constraints.scenes.tasks import simulate_scene
 
 
 @pytest.fixture(scope="module")

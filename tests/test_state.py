@@ -8,7 +8,7 @@ import pytest
 
 from ocp_constraints import SystemEquations, build_scene, consistent_state
 from ocp_constraints.errors import InconsistentStateError, ModelError
-from ocp_constraints.rotations import SingularConfigurationError
+from ocp_constraints.errors import SingularConfigurationError
 
 
 def _eqs(name, **params):

@@ -16,16 +16,16 @@ from hypothesis import HealthCheck, assume, given, settings
 from hypothesis import strategies as st
 
 from ocp_constraints import joints
-from ocp_constraints.equations import SystemEquations
+from ocp_constraints.mechanics.equations import SystemEquations
 from ocp_constraints.errors import RedundantConstraintsError, SimulationError
-from ocp_constraints.model import Model
-from ocp_constraints.ocp_solution import OCPSolveError
-from ocp_constraints.rotations import SingularConfigurationError
-from ocp_constraints.scenes import build_scene, build_task
-from ocp_constraints.simulate import SimulationOptions, simulate
-from ocp_constraints.state import consistent_state
-from ocp_constraints.tasks import energy_balance
-from ocp_constraints.transcription import Radau
+from ocp_constraints.mechanics.model import Model
+from ocp_constraints.errors import OCPSolveError
+from ocp_constraints.errors import SingularConfigurationError
+from ocp_constraints.scenes.registry import build_scene, build_task
+from ocp_constraints.dynamics.simulate import SimulationOptions, simulate
+from ocp_constraints.mechanics.state import consistent_state
+from ocp_constraints.scenes.tasks import energy_balance
+from ocp_constraints.ocp.schemes import Radau
 
 M_ROD, L_ROD, G = 1.0, 1.0, 9.81
 
@@ -172,7 +172,7 @@ def _rotation(v) -> np.ndarray:
 
 
 def _quaternion(R) -> np.ndarray:
-    from ocp_constraints.rotations import quaternion_from_rotation
+    from ocp_constraints.mechanics.rotations import quaternion_from_rotation
 
     return quaternion_from_rotation(R)
 

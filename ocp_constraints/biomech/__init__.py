@@ -1,0 +1,2 @@
+"""Biomechanics: OpenSim files and models, gait inverse dynamics and knee contact loads
+(uses mechanics, dynamics, output)."""

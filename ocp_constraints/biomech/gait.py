@@ -1,0 +1,254 @@
+"""Inverse dynamics of a measured gait trial with Lagrange's prescription.
+
+Route (issue 6):
+
+1. The OpenSim model's segments become our bodies (unit quaternions, so no Euler
+   singularity). Every joint's six relative directions are written at velocity level
+   from the bodies' angular velocities and point velocities: ``s_i' = g^i . R_F^T
+   (omega_C - omega_P)`` for the three rotation axes (dual Euler basis of the joint,
+   paper eq. 11) and ``s' = A^-1 R_F^T (v_M - v_F - omega_P x (x_M - x_F))`` for the
+   translations. A direction with a constant function, a direction coupled to a
+   coordinate by a spline (gait2354 knee translations) and a *locked* coordinate
+   become named constraints of the core (``<joint>.<axis>``, ``<joint>.<coordinate>``);
+   each free coordinate becomes an actuator input whose load pair has power
+   ``tau q'`` (a torque along ``g^i`` or a force along the dual translation axis).
+2. The coordinates are filtered as OpenSim's ID tool does (pad by reflection, 3rd-order
+   Butterworth run forward and backward, i.e. zero phase, at 6 Hz; then interpolating
+   quintic splines, differentiated twice) and the bodies' ``q, u, u'`` follow from
+   forward kinematics with automatic differentiation.
+3. Each force plate is given to the foot standing on it (centre of pressure against
+   the feet found from the kinematics), applied to that foot's hindfoot body.
+4. ``G^T lambda + B tau = M u' - f`` (the Newton-Euler balances, paper eq. 13) is
+   solved at every sample; joint loads follow from Lagrange's prescription (eq. 26) and
+   the generalized force of every OpenSim coordinate from ``Phi = lambda A`` with
+   ``A = G dU/dpdot`` (eqs. 38-41) plus the inputs: for a locked coordinate
+   ``Phi = lambda`` exactly (eq. 44).
+
+Modules: :mod:`.gait_model` (step 1), :mod:`.gait_signals` (2), :mod:`.gait_feet` (3),
+this one (4: the trial, :func:`run_inverse_dynamics`, :func:`compare`) and
+:mod:`.gait_cli` (results files and the ``gait`` command, re-exported here).
+
+Checked against OpenSim 4.6's InverseDynamicsTool on gait2354 subject01: every one of
+the 23 generalized forces agrees to 0.01 N m (``tests/test_gait.py``).
+"""
+from __future__ import annotations
+
+import time
+from dataclasses import dataclass
+
+import casadi as ca
+import numpy as np
+
+from ..mechanics.equations import SystemEquations
+from ..errors import OcpConstraintsError
+from .gait_feet import Leg, assign_plates, find_legs
+from .gait_model import JointInfo, constraint_model
+from ..errors import GaitError
+from .gait_signals import filter_coordinates
+from ..dynamics.inverse import InverseDynamics
+from ..mechanics.model import Model
+from .opensim_files import Plate, Table, grf_plates, read_grf, read_motion
+from ..errors import DataFileError
+from .osim_model import OsimModel, load_osim
+from ..mechanics.rotations import quaternion_from_rotation
+
+__all__ = ["GaitError", "GaitResult", "run_inverse_dynamics", "compare", "joint_load_columns"]
+
+
+@dataclass
+class GaitResult:
+    """Inverse dynamics of a trial.
+
+    ``generalized_forces`` (samples x coordinates) are in OpenSim's sense (N m for
+    rotational, N for translational coordinates): inputs for free coordinates plus
+    ``sum_k lambda_k A_k`` (eqs. 38-41) for every coordinate. ``loads`` holds DESIGN.md's
+    columns (``<constraint>.lambda``, ``<joint>@<body>.F_x`` ... in the ground frame).
+    """
+
+    t: np.ndarray
+    coordinate_names: list[str]
+    generalized_forces: np.ndarray
+    lam: np.ndarray
+    tau: np.ndarray
+    residual: np.ndarray
+    loads: dict[str, np.ndarray]
+    joints: dict[str, JointInfo]
+    legs: dict[str, Leg]
+    plates: dict[str, str]
+    timings: dict[str, float]
+    warnings: list[str]
+    osim: OsimModel
+    model: Model
+    eqs: SystemEquations
+    states: dict[str, np.ndarray]
+
+    def generalized_force(self, coordinate: str) -> np.ndarray:
+        if coordinate not in self.coordinate_names:
+            raise GaitError(f"no coordinate '{coordinate}' (coordinates: {', '.join(self.coordinate_names)})")
+        return self.generalized_forces[:, self.coordinate_names.index(coordinate)]
+
+    def leg_joints(self, side: str) -> list[str]:
+        """Names of the joints of one leg (hip to toes), in tree order."""
+        bodies = set(self.osim.subtree(self.legs[side].chain[0]))
+        return [n for n in self.osim.order if self.osim.outboard(self.osim.joints[n]) in bodies]
+
+
+def _check_columns(osim: OsimModel, motion: Table) -> list[str]:
+    names = osim.coordinate_names
+    unknown = [n for n in motion.columns if n not in osim.coordinates]
+    if unknown:
+        raise GaitError(f"{motion.path}: coordinate(s) {unknown} are not in the model {osim.path}")
+    missing = [n for n in names if n not in motion.columns]
+    if missing:
+        raise GaitError(f"{motion.path}: missing column(s) for the model coordinate(s) {missing}")
+    return names
+
+
+def _window(motion: Table, grf: Table, start, end, times) -> np.ndarray:
+    t0 = motion.time[0] if start is None else float(start)
+    t1 = motion.time[-1] if end is None else float(end)
+    dt = float(np.median(np.diff(motion.time)))
+    if not (motion.time[0] - 1e-9 <= t0 < t1 <= motion.time[-1] + 1e-9):
+        raise GaitError(f"{motion.path}: covers {motion.time[0]:g} ... {motion.time[-1]:g} s; the requested "
+                        f"window {t0:g} ... {t1:g} s is not inside it")
+    if times is None:
+        times = motion.time[(motion.time >= t0 - 1e-9) & (motion.time <= t1 + 1e-9)]
+    times = np.asarray(times, float)
+    if times.min() < motion.time[0] - 1.01 * dt or times.max() > motion.time[-1] + 1.01 * dt:
+        raise GaitError(f"{motion.path}: times {times.min():g} ... {times.max():g} s fall outside the motion")
+    if times.min() < grf.time[0] - 1e-9 or times.max() > grf.time[-1] + 1e-9:
+        raise GaitError(f"time ranges do not match: {grf.path} covers {grf.time[0]:g} ... {grf.time[-1]:g} s "
+                        f"but the motion window {motion.path} needs {times.min():g} ... {times.max():g} s")
+    return times
+
+
+def run_inverse_dynamics(model_path, motion_path, grf_path, start: float | None = None, end: float | None = None,
+                         cutoff: float | None = 6.0, times=None) -> GaitResult:
+    """Inverse dynamics of a trial from files to joint loads (see the module docstring).
+
+    Parameters
+    ----------
+    model_path, motion_path, grf_path
+        ``.osim`` model, coordinates (IK output, any format of :mod:`opensim_io`),
+        ground reaction forces (one or more plates).
+    start, end
+        Window (s); default the whole motion.
+    cutoff
+        Low-pass cutoff for the coordinates (Hz), OpenSim's default 6; None: no filter.
+    times
+        Sample times (s) to evaluate at (default: the motion's samples in the window).
+    """
+    clock = {"start": time.perf_counter()}
+    osim = load_osim(model_path)
+    trans = [n for n, c in osim.coordinates.items() if not c.rotational]
+    motion = read_motion(motion_path, translational=trans)
+    grf = read_grf(grf_path)
+    names = _check_columns(osim, motion)
+    t = _window(motion, grf, start, end, times)
+    plates = grf_plates(grf)
+    clock["read"] = time.perf_counter()
+    model, joints = constraint_model(osim)
+    eqs = SystemEquations(model)
+    legs = find_legs(osim)
+    clock["model"] = time.perf_counter()
+
+    splines = filter_coordinates(motion, names, cutoff)
+    P, Pd, Pdd = splines(t)
+    bodies = list(model.bodies)
+    N, nb = len(t), len(bodies)
+    R, xbar, vbar, w, abar, alpha, J = (np.asarray(x) for x in
+                                        osim.kinematics_function(bodies).map(N)(P.T, Pd.T, Pdd.T))
+    q = np.zeros((N, 7 * nb))
+    u = np.zeros((N, 6 * nb))
+    ud = np.zeros((N, 6 * nb))
+    for k in range(nb):
+        q[:, 7 * k:7 * k + 3] = xbar[3 * k:3 * k + 3].T
+        for n in range(N):
+            q[n, 7 * k + 3:7 * k + 7] = quaternion_from_rotation(R[9 * k:9 * k + 9, n].reshape(3, 3, order="F"))
+        u[:, 6 * k:6 * k + 3], u[:, 6 * k + 3:6 * k + 6] = vbar[3 * k:3 * k + 3].T, w[3 * k:3 * k + 3].T
+        ud[:, 6 * k:6 * k + 3], ud[:, 6 * k + 3:6 * k + 6] = abar[3 * k:3 * k + 3].T, alpha[3 * k:3 * k + 3].T
+    clock["kinematics"] = time.perf_counter()
+
+    # force plates -> feet
+    up = -np.asarray(osim.gravity) / np.linalg.norm(osim.gravity)
+    in_window = (grf.time >= t.min() - 1e-9) & (grf.time <= t.max() + 1e-9)
+    tg = grf.time[in_window]
+    pts = ca.SX.sym("p", len(names))
+    X = osim.poses({n: pts[i] for i, n in enumerate(names)})
+    foot_fn = ca.Function("feet", [pts], [ca.vertcat(*[X[legs[s].chain[c]][1] for s in legs for c in (-2, -1)])])
+    Pg = splines(tg)[0]
+    fp = np.asarray(foot_fn.map(len(tg))(Pg.T)).T
+    feet = {s: (fp[:, 6 * i:6 * i + 3], fp[:, 6 * i + 3:6 * i + 6]) for i, s in enumerate(legs)}
+    window_plates = [Plate(p.name, p.force[in_window], p.point[in_window], p.torque[in_window], p.columns) for p in plates]
+    assigned = assign_plates(window_plates, feet, up, str(grf.path))
+    fext = np.zeros((N, 6 * nb))
+    for pl in plates:
+        if pl.name not in assigned:
+            continue
+        k = bodies.index(legs[assigned[pl.name]].foot)
+        F = np.column_stack([np.interp(t, grf.time, pl.force[:, i]) for i in range(3)])
+        cop = np.column_stack([np.interp(t, grf.time, pl.point[:, i]) for i in range(3)])
+        T = np.column_stack([np.interp(t, grf.time, pl.torque[:, i]) for i in range(3)])
+        fext[:, 6 * k:6 * k + 3] += F
+        fext[:, 6 * k + 3:6 * k + 6] += np.cross(cop - q[:, 7 * k:7 * k + 3], F) + T
+    clock["grf"] = time.perf_counter()
+
+    try:
+        sol = InverseDynamics(eqs).solve(t, q, u, ud, external=fext)
+    except OcpConstraintsError as exc:
+        raise GaitError(f"{model_path}: {exc}") from exc
+    residual, lam, tau = sol.residual, sol.lam, sol.inputs
+    G = np.asarray(ca.Function("G", [eqs.q], [eqs.G]).map(N)(q.T))
+    # generalized forces per OpenSim coordinate: inputs + Phi = lambda A, A = G dU/dpdot (eqs. 38-41)
+    Gs = np.stack([G[:, n * eqs.nu:(n + 1) * eqs.nu] for n in range(N)])
+    Js = np.stack([J[:, n * len(names):(n + 1) * len(names)] for n in range(N)])
+    gen = np.einsum("nk,nkc->nc", lam, Gs @ Js)
+    inputs = list(model.inputs)
+    for i, name in enumerate(inputs):
+        gen[:, names.index(name)] += tau[:, i]
+    clock["solve"] = time.perf_counter()
+    loads = joint_load_columns(eqs, q, u, t, lam)
+    clock["loads"] = time.perf_counter()
+    steps = ["read", "model", "kinematics", "grf", "solve", "loads"]
+    prev, timings = clock["start"], {}
+    for s_ in steps:
+        timings[s_] = clock[s_] - prev
+        prev = clock[s_]
+    timings["total"] = clock["loads"] - clock["start"]
+    return GaitResult(t, names, gen, lam, tau, residual, loads, joints, legs, assigned, timings,
+                      list(getattr(model, "warnings", [])), osim, model, eqs,
+                      {"q": q, "u": u, "udot": ud, "p": P, "pdot": Pd, "pddot": Pdd, "J": Js, "fext": fext})
+
+
+def joint_load_columns(eqs: SystemEquations, q, u, t, lam) -> dict[str, np.ndarray]:
+    """DESIGN.md load columns: ``<constraint>.lambda``, per joint channel F, M, point, power."""
+    out = {f"{n}.lambda": lam[:, i] for i, n in enumerate(eqs.constraint_names)}
+    L = np.asarray(eqs.loads_function.map(len(t))(q.T, u.T, t, lam.T)).T
+    for c, ch in enumerate(eqs.load_channels):
+        block = L[:, 10 * c:10 * c + 10]
+        for i, a in enumerate("xyz"):
+            out[f"{ch.prefix}.F_{a}"] = block[:, i]
+            out[f"{ch.prefix}.M_{a}"] = block[:, 3 + i]
+            out[f"{ch.prefix}.point_{a}"] = block[:, 6 + i]
+        out[f"{ch.prefix}.power"] = block[:, 9]
+    return out
+
+
+def compare(result: GaitResult, reference: Table, coordinates: list[str]) -> dict[str, dict[str, float]]:
+    """RMS difference from OpenSim's generalized forces (``<coord>_moment`` / ``_force``).
+
+    The reference is interpolated to the result's times. Returns per coordinate
+    ``rms`` (N m or N), ``peak`` (largest magnitude of the reference) and ``percent``.
+    """
+    out = {}
+    for c in coordinates:
+        col = next((n for n in (f"{c}_moment", f"{c}_force") if n in reference.columns), None)
+        if col is None:
+            raise DataFileError(reference.path, f"has no column '{c}_moment' or '{c}_force'")
+        ref = np.interp(result.t, reference.time, reference.columns[col])
+        diff = result.generalized_force(c) - ref
+        rms, peak = float(np.sqrt(np.mean(diff ** 2))), float(np.max(np.abs(ref)))
+        out[c] = {"rms": rms, "peak": peak, "percent": 100 * rms / peak if peak > 0 else float("nan")}
+    return out
+
+

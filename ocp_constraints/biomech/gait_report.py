@@ -1,0 +1,79 @@
+"""``ocp-constraints gait``: results files (summary.json, loads.csv, plots) and the command line."""
+from __future__ import annotations
+
+from pathlib import Path
+from typing import TYPE_CHECKING
+
+import numpy as np
+
+
+
+if TYPE_CHECKING:
+    from .gait import GaitResult
+
+
+def write_gait_results(result: GaitResult, out, side: str = "right", plots: bool = True, inputs: dict | None = None) -> dict:
+    """``summary.json``, ``loads.csv`` (DESIGN.md names plus ``<coordinate>_moment/_force``) and plots."""
+    from ..output.files import prepare_output_folder, software_versions, write_csv, write_json
+
+    folder = prepare_output_folder(out)
+    leg = result.leg_joints(side)
+    cols = {}
+    for i, c in enumerate(result.coordinate_names):
+        suffix = "_moment" if result.osim.coordinates[c].rotational else "_force"
+        cols[f"{c}{suffix}"] = result.generalized_forces[:, i]
+    cols.update(result.loads)
+    write_csv(folder / "loads.csv", result.t, cols)
+    summary = {
+        "task": "gait inverse dynamics", "model": result.osim.path, "inputs": inputs or {},
+        "side": side, "samples": len(result.t), "t_start": float(result.t[0]), "t_end": float(result.t[-1]),
+        "filter": {"coordinates": "OpenSim ID tool: reflect-pad, 3rd-order Butterworth forward+backward, quintic splines"},
+        "plates": result.plates, "feet": {s: l.foot for s, l in result.legs.items()},
+        "leg_joints": {j: {"constraints": result.joints[j].constraints, "inputs": result.joints[j].inputs,
+                           "parent": result.joints[j].parent, "child": result.joints[j].child} for j in leg},
+        "n_constraints": len(result.eqs.constraint_names), "n_inputs": len(result.model.inputs),
+        "max_equation_residual": float(result.residual.max()),
+        "peak_generalized_forces": {c: float(np.max(np.abs(result.generalized_force(c))))
+                                    for j in leg for c in result.osim.joints[j].coordinates},
+        "wall_time": result.timings, "warnings": result.warnings, "software": software_versions(),
+    }
+    write_json(folder / "summary.json", summary)
+    if plots:
+        summary["plots"] = _plots(result, folder, leg)
+    return summary
+
+
+def _plots(result: GaitResult, folder: Path, leg: list[str]) -> list[str]:
+    import io
+
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    from ..output.files import write_atomic
+
+    written = []
+    for j in leg:
+        coords = result.osim.joints[j].coordinates
+        fig, axes = plt.subplots(3, 1, figsize=(8, 8), sharex=True)
+        for c in coords:
+            axes[0].plot(result.t, result.generalized_force(c), label=c)
+        axes[0].set(ylabel="generalized force [N m or N]", title=f"{j}: generalized forces, load on the child at its point")
+        prefix = next((p for p in (f"{j}@{result.joints[j].child}", j) if f"{p}.F_x" in result.loads), None)
+        if prefix:
+            for a in "xyz":
+                axes[1].plot(result.t, result.loads[f"{prefix}.F_{a}"], label=f"F_{a}")
+                axes[2].plot(result.t, result.loads[f"{prefix}.M_{a}"], label=f"M_{a}")
+        axes[1].set(ylabel="constraint force [N]")
+        axes[2].set(xlabel="t [s]", ylabel="constraint moment [N m]")
+        for ax in axes:
+            ax.grid(alpha=0.3)
+            if ax.lines:
+                ax.legend(fontsize=7)
+        buf = io.BytesIO()
+        fig.savefig(buf, format="png", dpi=100)
+        plt.close(fig)
+        write_atomic(folder / f"gait_{j}.png", buf.getvalue())
+        written.append(f"gait_{j}.png")
+    return written

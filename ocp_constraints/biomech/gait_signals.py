@@ -1,0 +1,81 @@
+"""Coordinates filtered and differentiated as OpenSim's InverseDynamicsTool does (step 2 of
+:mod:`ocp_constraints.biomech.gait`): pad by odd reflection, 3rd-order Butterworth forward and
+backward (zero phase) at 6 Hz, then interpolating quintic splines, differentiated twice.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+from scipy.interpolate import make_interp_spline
+
+from .opensim_files import Table
+
+
+# -- 2. coordinates: OpenSim's filter and spline ------------------------------------------------
+
+def _opensim_iir(y: np.ndarray, dt: float, fc: float) -> np.ndarray:
+    """OpenSim ``Signal::LowpassIIR``: 3rd-order Butterworth, forward then backward (zero phase)."""
+    fs = 1.0 / dt
+    if fc >= 0.5 * fs:
+        fc = 0.49 * fs
+    wa = np.tan(2 * np.pi * fc * dt / 2.0)
+    wa2, wa3 = wa * wa, wa ** 3
+    den = (wa + 1) * (wa2 + wa + 1.0)
+    a = np.array([wa3, 3 * wa3, 3 * wa3, wa3]) / den
+    b = np.array([1.0, (3 * wa3 + 2 * wa2 - 2 * wa - 3) / den, (3 * wa3 - 2 * wa2 - 2 * wa + 3) / den,
+                  (wa - 1) * (wa2 - wa + 1) / den])
+
+    def once(x):
+        out = np.array(x, dtype=float)
+        for i in range(3, len(x)):
+            out[i] = (a[0] * x[i] + a[1] * x[i - 1] + a[2] * x[i - 2] + a[3] * x[i - 3]
+                      - b[1] * out[i - 1] - b[2] * out[i - 2] - b[3] * out[i - 3])
+        return out
+
+    return once(once(y)[::-1])[::-1]
+
+
+def _pad(x: np.ndarray, n: int) -> np.ndarray:
+    """OpenSim ``Signal::Pad``: reflect and negate about both end values."""
+    head = 2 * x[0] - x[n:0:-1]
+    tail = 2 * x[-1] - x[-2:-n - 2:-1]
+    return np.concatenate([head, x, tail])
+
+
+@dataclass
+class CoordinateSplines:
+    """Filtered coordinates as quintic splines: values, rates and accelerations at any time."""
+
+    names: list[str]
+    splines: object
+    t_range: tuple[float, float]
+
+    def __call__(self, t) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        t = np.atleast_1d(np.asarray(t, float))
+        return tuple(np.asarray(self.splines(t, k)) for k in range(3))
+
+
+def filter_coordinates(table: Table, names: list[str], cutoff: float | None = 6.0) -> CoordinateSplines:
+    """Coordinates of ``table`` low-passed and splined as OpenSim's InverseDynamicsTool does.
+
+    Pad each column by half its length (odd reflection), resample at the smallest step
+    if the sampling is not uniform, 3rd-order Butterworth forward and backward at
+    ``cutoff`` Hz (None: no filter), then interpolating quintic splines.
+    """
+    t = table.time
+    Y = np.column_stack([table.column(n) for n in names])
+    if cutoff is not None:
+        n = len(t) // 2
+        tp = _pad(t, n)
+        Yp = np.column_stack([_pad(Y[:, k], n) for k in range(Y.shape[1])])
+        dt = float(np.min(np.diff(tp)))
+        if (tp[-1] - tp[0]) / (len(tp) - 1) - dt > np.finfo(float).eps:
+            tn = tp[0] + dt * np.arange(int(np.floor((tp[-1] - tp[0]) / dt + 1e-9)) + 1)
+            Yp = make_interp_spline(tp, Yp, k=5, axis=0)(tn)
+            tp = tn
+        Yf = np.column_stack([_opensim_iir(Yp[:, k], dt, cutoff) for k in range(Y.shape[1])])
+        t, Y = tp, Yf
+    return CoordinateSplines(names, make_interp_spline(t, Y, k=5, axis=0), (table.time[0], table.time[-1]))
+
+

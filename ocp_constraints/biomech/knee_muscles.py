@@ -1,0 +1,212 @@
+"""Muscle-tendon paths of the JW model as smooth functions of the coordinates (issue 7, step 2).
+
+OpenSim computes a muscle's path through via points and over wrap surfaces (cylinders,
+ellipsoids); the knee extensors wrap over the femoral component and the patella, the
+gastrocnemii over the condyles. Instead of re-implementing wrapping, the muscle-tendon
+length ``L(q)`` of every right-leg muscle is fitted, once, by a polynomial in the
+coordinates it spans, to OpenSim's own path lengths over the range of motion
+(``scripts/knee_muscle_fits.py``: OpenSim runs in its own process, the fit is stored in
+``ocp_constraints/biomech/data/jw_knee_muscle_paths.json``). Moment arms follow by automatic
+differentiation, ``r_c = -dL/dq_c`` (virtual work: a tension ``F`` gives the generalized
+force ``F r_c``, paper eqs. 35-41), for the primary coordinates (rad -> m) and for the
+five locked knee directions (``knee_adduction``, ``knee_rotation`` in m, ``knee_tx``,
+``knee_ty``, ``knee_tz`` dimensionless: the share of the tension along that axis).
+
+The patella follows the model's CoordinateCouplerConstraint ``patfem_flexion =
+knee_flexion + 1.57``; the fitted lengths include it, so the knee-flexion moment arms
+of the quadriceps are those of the coupled model (as OpenSim's ``computeMomentArm``).
+
+Basis (scaled coordinates ``x = (q - centre) / half_range``): all monomials of the
+spanned primary coordinates up to total degree ``DEGREE``, each secondary coordinate
+times the monomials of degree <= ``SECONDARY_DEGREE`` of the primaries, and the squares
+of the secondaries. Samples where OpenSim's path jumps (wrapping glitches: residual above
+six times the median and above 1 mm) are dropped and the fit repeated; their number is stored.
+"""
+from __future__ import annotations
+
+import itertools
+import json
+import re
+import xml.etree.ElementTree as ET
+from dataclasses import dataclass
+from pathlib import Path
+
+import casadi as ca
+import numpy as np
+
+from ..errors import MuscleDataError
+
+DATA_FILE = Path(__file__).resolve().parent / "data" / "jw_knee_muscle_paths.json"
+PRIMARY = ["hip_flexion", "hip_adduction", "hip_rotation", "knee_flexion", "ankle_angle", "subtalar_angle"]
+SECONDARY = ["knee_adduction", "knee_rotation", "knee_tx", "knee_ty", "knee_tz"]
+DEGREE = {1: 7, 2: 6, 3: 5, 4: 5}
+SECONDARY_DEGREE = 3
+
+
+def exponents(n_primary: int, n_secondary: int) -> np.ndarray:
+    """Exponent rows of the basis (columns: primaries, then secondaries)."""
+    deg = DEGREE.get(n_primary, 4)
+    rows = []
+    for total in range(deg + 1):
+        for e in itertools.product(range(total + 1), repeat=n_primary):
+            if sum(e) == total:
+                rows.append(list(e) + [0] * n_secondary)
+    for j in range(n_secondary):
+        for total in range(SECONDARY_DEGREE + 1):
+            for e in itertools.product(range(total + 1), repeat=n_primary):
+                if sum(e) == total:
+                    s = [0] * n_secondary
+                    s[j] = 1
+                    rows.append(list(e) + s)
+        s = [0] * n_secondary
+        s[j] = 2
+        rows.append([0] * n_primary + s)
+    return np.array(rows, dtype=int).reshape(-1, n_primary + n_secondary)
+
+
+def basis(x, E: np.ndarray):
+    """Monomials ``prod_i x_i^E[k, i]`` for numeric ``x`` (samples x vars) or a CasADi column."""
+    if isinstance(x, (ca.SX, ca.MX)):
+        out = []
+        for e in E:
+            term = 1
+            for i, p in enumerate(e):
+                if p:
+                    term = term * x[i] ** int(p)
+            out.append(term)
+        return ca.vertcat(*[ca.SX(t) if isinstance(t, int) else t for t in out])
+    x = np.atleast_2d(x)
+    return np.prod(x[:, None, :] ** E[None, :, :], axis=2)
+
+
+def _fit_length(X, y, spans, names, centre, half, n_fit) -> dict:
+    """Least-squares fit of one sampled length ``y`` over the coordinates in ``spans``."""
+    prim = [c for c in PRIMARY if c in spans]
+    sec = [c for c in SECONDARY if c in spans]
+    cols = [names.index(c) for c in prim + sec]
+    E = exponents(len(prim), len(sec))
+    Z = (X[:, cols] - centre[cols]) / half[cols]
+    B = basis(Z, E)
+    keep = np.arange(n_fit)
+    for _ in range(3):    # drop OpenSim's wrapping glitches (isolated jumps of the path), refit
+        coef, *_ = np.linalg.lstsq(B[keep], y[keep], rcond=None)
+        res = np.abs(B[:n_fit] @ coef - y[:n_fit])
+        keep = np.flatnonzero(res <= max(6 * np.median(res), 1e-3))
+    err = B[n_fit:] @ coef - y[n_fit:]
+    good = np.abs(err) <= max(6 * np.median(np.abs(err)), 1e-3)
+    return {"coordinates": prim + sec, "exponents": E.tolist(), "coefficients": coef.tolist(),
+            "centre": centre[cols].tolist(), "half_range": half[cols].tolist(),
+            "holdout_max_length_error_m": float(np.abs(err[good]).max()),
+            "holdout_outliers": int((~good).sum()), "fit_outliers_dropped": int(n_fit - len(keep))}
+
+
+def fit_paths(raw: dict) -> dict:
+    """Least-squares fits of OpenSim's sampled lengths (``raw`` from the OpenSim script)."""
+    names = raw["coordinates"]
+    X, L = np.asarray(raw["samples"]), np.asarray(raw["lengths"])
+    lo, hi = X.min(0), X.max(0)
+    centre, half = (lo + hi) / 2, np.maximum((hi - lo) / 2, 1e-12)
+    n_fit = int(0.8 * len(X))                      # last 20 % held out for the accuracy check
+    return {m: _fit_length(X, L[:, i], raw["spans"][m], names, centre, half, n_fit)
+            for i, m in enumerate(raw["muscles"])}
+
+
+def fit_units(raw: dict) -> dict:
+    """Fits of the muscle-tendon-unit lengths of the muscles whose force path is longer (quadriceps).
+
+    ``raw["units"]`` (from the OpenSim script): muscles whose path runs on over the
+    patella to the tibia; ``raw["unit_lengths"]`` the lengths of their twins
+    ``<name>_withreallength`` ending on the patella, the muscle-tendon unit that the
+    model's ``optimal_fiber_length`` and ``tendon_slack_length`` describe.
+    """
+    names = raw["coordinates"]
+    X, L = np.asarray(raw["samples"]), np.asarray(raw.get("unit_lengths", np.zeros((0, 0))))
+    lo, hi = X.min(0), X.max(0)
+    centre, half = (lo + hi) / 2, np.maximum((hi - lo) / 2, 1e-12)
+    n_fit = int(0.8 * len(X))
+    return {m: _fit_length(X, L[:, i], raw["unit_spans"][m], names, centre, half, n_fit)
+            for i, m in enumerate(raw.get("units", []))}
+
+
+@dataclass
+class MuscleParameters:
+    """Hill-model parameters read from the .osim file (N, m, rad)."""
+
+    max_isometric_force: float
+    optimal_fiber_length: float
+    tendon_slack_length: float
+    pennation_angle: float
+
+
+def muscle_parameters(osim_path, names: list[str]) -> dict[str, MuscleParameters]:
+    """``max_isometric_force`` etc. of the named muscles, from the model file."""
+    try:
+        root = ET.parse(osim_path).getroot()
+    except (OSError, ET.ParseError) as exc:
+        raise MuscleDataError(f"{osim_path}: cannot read the model: {exc}") from exc
+    found = {}
+    for elem in root.iter():
+        name = elem.get("name")
+        if name in names and elem.find("max_isometric_force") is not None and re.search("Muscle", elem.tag):
+            def num(tag, default=0.0):
+                t = elem.findtext(tag)
+                return float(t) if t is not None else default
+            found[name] = MuscleParameters(num("max_isometric_force"), num("optimal_fiber_length"),
+                                           num("tendon_slack_length"), num("pennation_angle_at_optimal"))
+    missing = [n for n in names if n not in found]
+    if missing:
+        raise MuscleDataError(f"{osim_path}: muscle(s) {missing} of the path data are not in the model")
+    return found
+
+
+class MusclePaths:
+    """Fitted path lengths ``L(q)`` (m) and moment arms ``-dL/dq`` as CasADi functions.
+
+    ``coordinates`` is :data:`PRIMARY` + :data:`SECONDARY` (rad, m; knee_ty absolute, m).
+
+    Two lengths per muscle. ``length`` is the path along which the tension acts (its
+    gradient gives the moment arms); ``unit_length`` is the length of the muscle-tendon
+    unit, the one the model's ``optimal_fiber_length`` and ``tendon_slack_length`` refer
+    to (fibre kinematics of the Hill model). They differ for the quadriceps of the JW
+    model (``units``): their force paths run over the patella to the tibia (the patellar
+    ligament is part of the path, so that the knee moment arm is right), while their
+    muscle-tendon units end on the patella (the model's ``<name>_withreallength`` twins,
+    about 0.1 m shorter). For every other muscle the two are the same.
+    """
+
+    def __init__(self, path=DATA_FILE):
+        try:
+            data = json.loads(Path(path).read_text())
+        except (OSError, ValueError) as exc:
+            raise MuscleDataError(f"{path}: cannot read the muscle-path data: {exc}") from exc
+        self.path, self.data = str(path), data
+        self.muscles: list[str] = list(data["fits"])
+        self.coordinates = PRIMARY + SECONDARY
+        q = ca.SX.sym("q", len(self.coordinates))
+
+        def fitted(f):
+            idx = [self.coordinates.index(c) for c in f["coordinates"]]
+            z = (q[idx] - ca.DM(f["centre"])) / ca.DM(f["half_range"])
+            return ca.dot(ca.DM(f["coefficients"]), basis(z, np.asarray(f["exponents"], dtype=int)))
+
+        L = ca.vertcat(*[fitted(data["fits"][m]) for m in self.muscles])
+        units = data.get("unit_fits", {})
+        self.units: list[str] = [m for m in self.muscles if m in units]
+        U = ca.vertcat(*[fitted(units[m]) if m in units else L[i] for i, m in enumerate(self.muscles)])
+        R = -ca.jacobian(L, q)
+        self.length = ca.Function("muscle_length", [q], [L], ["q"], ["L"])
+        self.moment_arms = ca.Function("moment_arms", [q], [R], ["q"], ["R"])
+        self.unit_length = ca.Function("unit_length", [q], [U], ["q"], ["L"])
+        self.unit_jacobian = ca.Function("unit_jacobian", [q], [ca.jacobian(U, q)], ["q"], ["J"])
+
+    def crossing(self, coordinate: str) -> list[str]:
+        """Muscles whose path spans ``coordinate``."""
+        return [m for m in self.muscles if coordinate in self.data["fits"][m]["coordinates"]]
+
+    def q_vector(self, values: dict[str, float]) -> np.ndarray:
+        """Coordinate vector from a dict (missing: 0; knee_ty: the model default)."""
+        q = np.zeros(len(self.coordinates))
+        q[self.coordinates.index("knee_ty")] = self.data["knee_ty"]
+        for k, v in values.items():
+            q[self.coordinates.index(k)] = v
+        return q

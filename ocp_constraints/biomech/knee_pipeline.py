@@ -1,0 +1,241 @@
+"""The knee pipeline: minimum-effort knee contact loads of a gait trial, compared with measured ones.
+
+``run_knee`` chains inverse dynamics (:mod:`.gait`), the knee constraint matrix
+(:mod:`.knee_model`), fitted muscle paths (:mod:`.knee_muscles`)
+and static optimisation (:mod:`.knee_static`). The right gait cycle is found from the
+force plates: the first two contact onsets (vertical force above 20 N) of plates
+carrying the right foot. Measured loads (KCF: ``PM + AM`` medial, ``AL + PL`` lateral, lbf)
+are converted with 4.4482216153 N/lbf and expressed in body weights (model mass x g).
+"""
+from __future__ import annotations
+
+import time
+from pathlib import Path
+
+import numpy as np
+
+from ..errors import OcpConstraintsError
+from .knee_options import METHOD_TEXT, MUSCLE_MODELS
+from .knee_model import CONTACT, contact_matrix_function
+from .knee_static import frame_data, solve_static
+from ..errors import KneeError
+
+LBF = 4.4482216153
+
+
+def gait_cycle(grf_path, plates_of_right: list[str]) -> tuple[float, float]:
+    """First two right-foot contact onsets (s)."""
+    from .opensim_files import grf_plates, read_grf
+
+    grf = read_grf(grf_path)
+    onsets = []
+    for pl in grf_plates(grf):
+        if pl.name in plates_of_right:
+            on = np.flatnonzero(np.diff((pl.force[:, 1] > 20.0).astype(int)) == 1)
+            onsets += [float(grf.time[i + 1]) for i in on]
+    onsets.sort()
+    if len(onsets) < 2:
+        raise KneeError(f"{grf_path}: fewer than two right-foot contacts; no full gait cycle")
+    return onsets[0], onsets[1]
+
+
+def read_measured(path) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Time (s), medial and lateral measured contact force (N) from a KCF file."""
+    from .opensim_files import read_forces
+
+    try:
+        tab = read_forces(path)
+    except OcpConstraintsError:
+        raise
+    except Exception as exc:  # noqa: BLE001 - unreadable file
+        raise KneeError(f"{path}: cannot read the measured contact forces: {exc}") from exc
+    cols = tab.columns
+    missing = [c for c in ("PM", "AM", "AL", "PL") if c not in cols]
+    if missing:
+        raise KneeError(f"{path}: no column(s) {missing} (PM, AM, AL, PL in lbf are needed)")
+    return tab.time, (cols["PM"] + cols["AM"]) * LBF, (cols["AL"] + cols["PL"]) * LBF
+
+
+def compare(t, predicted: dict, measured, bw: float) -> dict:
+    """RMSE (BW), Pearson r and peak error (BW) per channel, measured interpolated to ``t``."""
+    tm, med, lat = measured
+    ref = {"medial": med, "lateral": lat, "total": med + lat}
+    out = {}
+    for k, y in predicted.items():
+        m = np.interp(t, tm, ref[k])
+        out[k] = {"rmse_bw": float(np.sqrt(np.mean((y - m) ** 2)) / bw), "r": float(np.corrcoef(y, m)[0, 1]),
+                  "peak_error_bw": float((y.max() - m.max()) / bw), "peak_predicted_bw": float(y.max() / bw),
+                  "peak_measured_bw": float(m.max() / bw)}
+    return out
+
+
+
+
+METHODS = ("static", "collocation")
+
+
+def run_knee(model, motion, grf, measured=None, muscles_on: bool = True, muscle_model: str = "ideal",
+             method: str = "static"):
+    """Gait cycle -> inverse dynamics -> static optimisation or collocation (-> comparison). Returns a dict.
+
+    ``method``: ``"static"`` (per-frame static optimisation, :mod:`.knee_static`) or
+    ``"collocation"`` (the whole cycle with activation dynamics, :mod:`.knee_collocation`).
+
+    ``muscle_model``: ``"ideal"`` (``F = a F0``, the default) or ``"hill"`` (De Groote et
+    al. 2016 force-length-velocity curves, rigid tendon, :mod:`.knee_hill`; experimental: with
+    a rigid tendon the quadriceps' passive forces reach 0.5-1 kN at zero activation in swing,
+    which a subject who bends the knee in swing cannot have).
+    """
+    if muscle_model not in MUSCLE_MODELS:
+        raise KneeError(f"unknown muscle model '{muscle_model}' (use one of {', '.join(MUSCLE_MODELS)})")
+    if method not in METHODS:
+        raise KneeError(f"unknown method '{method}' (use one of {', '.join(METHODS)})")
+    if method == "collocation":
+        from .knee_collocation import solve_collocation as solve
+    else:
+        solve = solve_static
+    from .gait import run_inverse_dynamics
+    from .knee_muscles import MusclePaths, muscle_parameters
+    from .opensim_files import read_motion
+    from .osim_model import load_osim
+
+    clock = time.perf_counter()
+    from .opensim_files import read_grf
+
+    g_time = read_grf(grf).time
+    first = run_inverse_dynamics(model, motion, grf, start=max(g_time[0], read_motion(motion).time[0]),
+                                 end=min(g_time[-1], read_motion(motion).time[-1]))
+    right = [p for p, s in first.plates.items() if s == "right"]
+    t0, t1 = gait_cycle(grf, right)
+    mt = first.t
+    times = mt[(mt >= t0 - 1e-9) & (mt <= t1 + 1e-9)]
+    gait = run_inverse_dynamics(model, motion, grf, times=times)
+    paths = MusclePaths()
+    params = muscle_parameters(model, paths.muscles)
+    F0 = np.array([params[m].max_isometric_force for m in paths.muscles])
+    Qc, R, A = frame_data(gait, paths, contact_matrix_function())
+    hill = None
+    if muscle_model == "hill":
+        from .knee_hill import hill_forces, scale_lengths
+        from .knee_static import muscle_kinematics
+
+        L, V = muscle_kinematics(gait, paths)
+        l_opt, l_s, alpha0 = (np.array([getattr(params[m], k) for m in paths.muscles]) for k in
+                              ("optimal_fiber_length", "tendon_slack_length", "pennation_angle"))
+        L_ref = np.asarray(paths.unit_length(paths.q_vector({}))).ravel()
+        factors, l_opt, l_s = scale_lengths(L_ref, l_opt, l_s, alpha0)
+        hill = hill_forces(L, V, F0, l_opt, l_s, alpha0)
+        hill.scale = dict(zip(paths.muscles, factors.tolist()))
+        res = solve(gait.t, Qc, R, A, hill.active, muscles_on=muscles_on, passive=hill.passive)
+    else:
+        res = solve(gait.t, Qc, R, A, F0, muscles_on=muscles_on)
+    res.muscles = paths.muscles
+    osim = load_osim(model)
+    bw = sum(b.mass for b in osim.bodies.values()) * float(np.linalg.norm(osim.gravity))
+    out = {"result": res, "gait": gait, "cycle": (t0, t1), "bw": bw, "F0": F0, "hill": hill, "muscle_model": muscle_model,
+           "method": method, "wall_total": time.perf_counter() - clock}
+    if measured is not None:
+        meas = read_measured(measured)
+        out["measured"] = meas
+        out["comparison"] = compare(res.t, {"medial": res.medial, "lateral": res.lateral, "total": res.total}, meas, bw)
+    return out
+
+
+def write_knee_results(run: dict, out, plots: bool = True, inputs: dict | None = None) -> dict:
+    from ..output.files import prepare_output_folder, software_versions, write_csv, write_json
+
+    folder = prepare_output_folder(out)
+    r = run["result"]
+    cols = {"N_medial": r.medial, "N_lateral": r.lateral, "N_total": r.total}
+    for j, c in enumerate(CONTACT):
+        cols[f"{c}.lambda"] = r.lam[:, j]
+    for i, m in enumerate(r.muscles):
+        cols[f"{m}.force"] = r.force[:, i]
+    from .knee_static import RESERVED
+    for i, c in enumerate(RESERVED):
+        cols[f"reserve_{c}"] = r.reserve[:, i]
+    if getattr(r, "excitation", None) is not None:          # collocation: the muscle states and controls
+        for i, m in enumerate(r.muscles):
+            cols[f"{m}.activation"] = r.activation[:, i]
+            cols[f"{m}.excitation"] = r.excitation[:, i]
+    write_csv(folder / "loads.csv", r.t, cols)
+    method = run.get("method", "static")
+    summary = {"task": f"knee contact loads, {METHOD_TEXT[method]}", "method": method, "success": True,
+               "inputs": inputs or {},
+               "gait_cycle_s": list(run["cycle"]), "frames": len(r.t), "body_weight_N": run["bw"],
+               "solver": {"nlp": "all frames in one NLP, IPOPT (casadi.nlpsol)", "status": r.status,
+                          "max_equation_residual": r.residual},
+               "wall_time_s": {**r.timings, "total": run["wall_total"]},
+               "muscle_model": _muscle_model_text(run),
+               "peak_reserve_Nm": {c: float(np.abs(r.reserve[:, i]).max()) for i, c in enumerate(RESERVED)},
+               "peak_bw": {"medial": float(r.medial.max() / run["bw"]), "lateral": float(r.lateral.max() / run["bw"]),
+                           "total": float(r.total.max() / run["bw"])},
+               "comparison": run.get("comparison"), "software": software_versions()}
+    if method == "collocation":
+        from .knee_collocation import SMOOTHING
+
+        summary["solver"]["transcription"] = ("first-order Radau IIA (backward Euler) collocation of the activation "
+                                              "ODE on the frames' time grid (the frames are the mesh)")
+        summary["solver"]["max_activation_ode_residual"] = r.ode_residual
+        summary["activation_dynamics"] = {
+            "model": ("da/dt = (e - a)(e/tau_act + (1 - e)/tau_deact), Raasch et al. 1997, J Biomech 30:595"
+                      if SMOOTHING == 0 else "da/dt = (e - a)/tau(e, a), De Groote et al. 2016, Ann Biomed Eng "
+                      "44:2922 (doi:10.1007/s10439-016-1591-9), eqs. 1-2"),
+            "initial_guess": "the static optimisation's solution (e = a)",
+            "tau_act_s": r.tau[0], "tau_deact_s": r.tau[1], "smoothing_b": SMOOTHING,
+            "objective": "int sum (e^2 + a^2)/2 + reserve_weight sum rho^2 dt (trapezoidal weights)"}
+        summary["solve_time_s"] = r.timings["build"] + r.timings["solve"]
+    write_json(folder / "summary.json", summary)
+    if plots:
+        summary["plots"] = [_plot(run, folder)]
+    return summary
+
+
+
+
+def _muscle_model_text(run) -> dict:
+    paths = "muscle-tendon lengths fitted to OpenSim's paths (ocp_constraints/biomech/data/jw_knee_muscle_paths.json)"
+    if run.get("muscle_model", "ideal") == "ideal":
+        return {"name": "ideal", "tension": "F = a F0 (max_isometric_force from the model)", "paths": paths}
+    h, r = run["hill"], run["result"]
+    out = {"name": "hill", "tension": "F = F0 (a f_L f_V + f_PE) cos(alpha), rigid tendon",
+           "curves": "De Groote et al. 2016, Ann Biomed Eng 44:2922 (doi:10.1007/s10439-016-1591-9)",
+           "parameters": "max_isometric_force, optimal_fiber_length, tendon_slack_length, pennation_angle from the "
+                         "model file; l_opt and l_s both scaled by k so that the fibre is at l_opt in the upright "
+                         "reference pose (all angles zero); v_max = 10 l_opt/s",
+           "length_scale_factor": getattr(h, "scale", None), "paths": paths, "fiber_length_range": {}}
+    for i, m in enumerate(r.muscles):
+        out["fiber_length_range"][m] = [float(h.fiber_length[:, i].min()), float(h.fiber_length[:, i].max())]
+    return out
+
+
+def _plot(run, folder) -> str:
+    import io
+
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    from ..output.files import write_atomic
+
+    r, bw = run["result"], run["bw"]
+    fig, axes = plt.subplots(3, 1, figsize=(8, 9), sharex=True)
+    meas = run.get("measured")
+    for ax, (name, y) in zip(axes, (("medial", r.medial), ("lateral", r.lateral), ("total", r.total))):
+        ax.plot(r.t, y / bw, label=f"predicted ({METHOD_TEXT[run.get('method', 'static')]}, "
+                                         f"{run.get('muscle_model', 'ideal')} muscles)")
+        if meas is not None:
+            tm, med, lat = meas
+            m = {"medial": med, "lateral": lat, "total": med + lat}[name]
+            keep = (tm >= r.t[0]) & (tm <= r.t[-1])
+            ax.plot(tm[keep], m[keep] / bw, "k--", label="measured (eTibia)")
+        ax.set(ylabel=f"{name} [BW]")
+        ax.grid(alpha=0.3)
+        ax.legend(fontsize=8)
+    axes[-1].set(xlabel="t [s]")
+    buf = io.BytesIO()
+    fig.savefig(buf, format="png", dpi=100)
+    plt.close(fig)
+    write_atomic(Path(folder) / "knee_contact.png", buf.getvalue())
+    return "knee_contact.png"

@@ -1,0 +1,160 @@
+"""Minimum-effort knee contact loads by static optimisation (issue 7, step 3).
+
+Per frame of a gait trial, with the generalized forces ``Q`` of the leg's coordinates
+from our inverse dynamics (:func:`ocp_constraints.biomech.gait.run_inverse_dynamics`, paper eqs.
+38-44: a locked knee direction's ``Q`` is its multiplier), the unknowns are the muscle
+activations ``a`` (tension ``F_m = a_m F0_m + Fp_m``: ideal force generators with
+``F0`` = the model's ``max_isometric_force`` and no passive force, or Hill-type muscles
+with rigid tendons, :mod:`.knee_hill`, where ``F0`` is the force at full activation at the
+frame's fibre length and velocity and ``Fp`` the passive force), the multipliers ``lambda`` of the knee constraints of
+the two-body knee (:mod:`.knee_model`) (``N_medial``, ``N_lateral``, ``ap``, ``ml``, ``ie``) and reserve
+torques ``rho`` (N m) on the primary coordinates. The leg's Newton-Euler equations,
+projected on the coordinates (eqs. 35-41), read
+
+    Q_c = sum_m r_mc F0_m a_m + sum_j lambda_j A_jc + rho_c
+
+for c in hip_flexion/adduction/rotation, knee_flexion (plus the coupled patella's
+``Q``), ankle_angle, subtalar_angle (with reserves) and the five locked knee directions
+(no reserve). ``r = -dL/dq`` from :mod:`.knee_muscles`; ``A = G dU/dp`` of the knee
+constraints in the JW knee coordinates (eq. 39). Minimise ``sum a^2 + w sum rho^2``
+subject to ``0 <= a <= 1``, ``N_medial >= 0``, ``N_lateral >= 0``: one sparse NLP over
+all frames (IPOPT through ``casadi.nlpsol``), built once per trial.
+"""
+from __future__ import annotations
+
+import time
+from dataclasses import dataclass, field
+
+import casadi as ca
+import numpy as np
+
+from ..errors import KneeError
+from .knee_contact import KNEE_COORDINATES
+from .knee_muscles import PRIMARY, SECONDARY, MusclePaths
+
+RESERVED = ["hip_flexion", "hip_adduction", "hip_rotation", "knee_flexion", "ankle_angle", "subtalar_angle"]
+RESERVE_WEIGHT = 1.0       # cost of 1 N m of reserve = cost of one fully active muscle
+
+
+@dataclass
+class StaticResult:
+    """Per frame: ``lam`` (frames x 5, N or N m), activations, muscle forces (N), reserves (N m)."""
+
+    t: np.ndarray
+    muscles: list[str]
+    activation: np.ndarray
+    force: np.ndarray
+    lam: np.ndarray
+    reserve: np.ndarray
+    residual: float
+    status: str
+    timings: dict[str, float] = field(default_factory=dict)
+
+    @property
+    def medial(self) -> np.ndarray:
+        return self.lam[:, 0]
+
+    @property
+    def lateral(self) -> np.ndarray:
+        return self.lam[:, 1]
+
+    @property
+    def total(self) -> np.ndarray:
+        return self.lam[:, 0] + self.lam[:, 1]
+
+
+def frame_data(gait, paths: MusclePaths, contact_A: ca.Function):
+    """Right-hand sides ``Q`` (frames x 11), moment arms (frames x 11 x muscles) and ``A`` (frames x 5 x 11)."""
+    names = gait.coordinate_names
+    missing = [c for c in PRIMARY + SECONDARY if c not in names]
+    if missing:
+        raise KneeError(f"{gait.osim.path}: the model has no coordinate(s) {missing} (a JW-type knee model is needed)")
+    P = gait.states["p"]
+    rows = RESERVED + SECONDARY
+    Qc = np.column_stack([gait.generalized_force(c) for c in rows])
+    if "patfem_flexion" in names:             # coupled patella: patfem_flexion = knee_flexion + const
+        Qc[:, rows.index("knee_flexion")] += gait.generalized_force("patfem_flexion")
+    qv = np.column_stack([P[:, names.index(c)] for c in paths.coordinates])
+    N = len(gait.t)
+    R = np.asarray(paths.moment_arms.map(N)(qv.T)).reshape(len(paths.muscles), N, -1)
+    R = np.transpose(R, (1, 2, 0))            # frames x coordinates(paths order) x muscles
+    idx = [paths.coordinates.index(c) for c in rows]
+    R = R[:, idx, :]
+    pk = np.column_stack([P[:, names.index(c)] for c in KNEE_COORDINATES])
+    A6 = np.asarray(contact_A.map(N)(pk.T)).reshape(5, N, 6).transpose(1, 0, 2)
+    A = np.zeros((N, 5, len(rows)))
+    for k, c in enumerate(KNEE_COORDINATES):
+        A[:, :, rows.index(c)] = A6[:, :, k]
+    return Qc, R, A
+
+
+def muscle_kinematics(gait, paths: MusclePaths) -> tuple[np.ndarray, np.ndarray]:
+    """Muscle-tendon-unit lengths ``L`` (m) and rates ``dL/dt`` (m/s), frames x muscles.
+
+    The lengths of the units the Hill parameters describe (:attr:`MusclePaths.unit_length`:
+    for the quadriceps the path ending on the patella, not the force path over the
+    patellar ligament to the tibia); for the other muscles ``dL/dt = -R qdot``.
+    """
+    names = gait.coordinate_names
+    P, Pd = gait.states["p"], gait.states["pdot"]
+    qv = np.column_stack([P[:, names.index(c)] for c in paths.coordinates])
+    qd = np.column_stack([Pd[:, names.index(c)] for c in paths.coordinates])
+    N = len(gait.t)
+    L = np.asarray(paths.unit_length.map(N)(qv.T)).T
+    Jl = np.asarray(paths.unit_jacobian.map(N)(qv.T)).reshape(len(paths.muscles), N, -1).transpose(1, 0, 2)
+    return L, np.einsum("nmc,nc->nm", Jl, qd)
+
+
+def solve_static(t, Qc, R, A, F0, muscles_on: bool = True, contact_nonnegative: bool = True,
+                 reserve_weight: float = RESERVE_WEIGHT, passive=None) -> StaticResult:
+    """All frames in one NLP (IPOPT): see the module docstring. ``Qc`` in N m / N.
+
+    Muscle tension ``F = a F0 + passive``: ``F0`` (N) per muscle (ideal force generators,
+    the model's max isometric force) or per frame and muscle (the Hill force at full
+    activation, :func:`ocp_constraints.biomech.knee_hill.hill_forces`); ``passive`` (frames x
+    muscles, N) the passive fibre force (default none).
+    """
+    clock = time.perf_counter()
+    N, nr, nm = R.shape
+    F0 = np.broadcast_to(np.asarray(F0, float), (N, nm))
+    passive = np.zeros((N, nm)) if passive is None else np.asarray(passive, float)
+    nres = len(RESERVED)
+    nx = nm + 5 + nres
+    x = ca.SX.sym("x", nx)
+    p = ca.SX.sym("p", nr + nr * nm + 5 * nr + 2 * nm)
+    Qp = p[:nr]
+    Rp = ca.reshape(p[nr:nr + nr * nm], nr, nm)
+    Ap = ca.reshape(p[nr + nr * nm:nr + nr * nm + 5 * nr], 5, nr)
+    F0p, Fpp = p[nr + nr * nm + 5 * nr:-nm], p[-nm:]
+    a, lam, rho = x[:nm], x[nm:nm + 5], x[nm + 5:]
+    F = a * F0p + Fpp
+    res = Rp @ F + Ap.T @ lam + ca.vertcat(rho, ca.DM.zeros(nr - nres)) - Qp
+    f = ca.sumsqr(a) + reserve_weight * ca.sumsqr(rho)
+    frame = ca.Function("frame", [x, p], [f, res])
+    X = ca.MX.sym("X", nx, N)
+    Pm = ca.MX.sym("P", p.numel(), N)
+    fo, go = frame.map(N)(X, Pm)
+    nlp = {"x": ca.vec(X), "p": ca.vec(Pm), "f": ca.sum2(fo), "g": ca.vec(go)}
+    solver = ca.nlpsol("knee_so", "ipopt", nlp, {"ipopt.print_level": 0, "print_time": False, "ipopt.sb": "yes",
+                                                  "ipopt.tol": 1e-8, "ipopt.hessian_constant": "yes",
+                                                  "ipopt.jac_c_constant": "yes", "ipopt.jac_d_constant": "yes"})
+    built = time.perf_counter()
+    pars = np.column_stack([Qc, R.transpose(0, 2, 1).reshape(N, -1), A.transpose(0, 2, 1).reshape(N, -1),
+                            F0, passive]).T
+    lbx, ubx = np.full((nx, N), -np.inf), np.full((nx, N), np.inf)
+    lbx[:nm], ubx[:nm] = 0.0, (1.0 if muscles_on else 0.0)
+    if contact_nonnegative:
+        lbx[nm:nm + 2] = 0.0
+    x0 = np.zeros((nx, N))
+    x0[:nm] = 0.05 if muscles_on else 0.0
+    sol = solver(x0=x0.ravel(order="F"), p=pars.ravel(order="F"), lbx=lbx.ravel(order="F"),
+                 ubx=ubx.ravel(order="F"), lbg=0, ubg=0)
+    status = solver.stats()["return_status"]
+    Xs = np.asarray(sol["x"]).reshape(nx, N, order="F")
+    g = np.abs(np.asarray(sol["g"])).max()
+    done = time.perf_counter()
+    if not solver.stats()["success"]:
+        raise KneeError(f"static optimisation failed: IPOPT status '{status}', max equation residual {g:.3g}")
+    act = Xs[:nm].T
+    return StaticResult(np.asarray(t), [], act, act * F0 + passive, Xs[nm:nm + 5].T, Xs[nm + 5:].T, float(g), status,
+                        {"build": built - clock, "solve": done - built})

@@ -1,0 +1,47 @@
+"""``ocp-constraints knee``: knee contact loads of a gait trial (arguments and handler)."""
+from __future__ import annotations
+
+import sys
+
+from ..biomech.knee_options import METHOD_TEXT, METHODS, MUSCLE_MODELS
+from ..errors import OcpConstraintsError
+
+
+def add_knee_parser(subparsers) -> None:
+    """``knee --model M.osim --motion IK --grf GRF [--measured KCF] [--method static|collocation] --out DIR``."""
+    k = subparsers.add_parser("knee", help="knee contact loads (condyle contact, minimum-effort muscle forces)")
+    k.add_argument("--model", required=True, help="OpenSim model with a JW-type 6-DOF knee (.osim)")
+    k.add_argument("--motion", required=True, help="joint coordinates (IK .mot/.sto/.csv/.mat)")
+    k.add_argument("--grf", required=True, help="ground reaction forces")
+    k.add_argument("--measured", default=None, help="measured contact forces (KCF .csv/.mat: PM, AM, AL, PL in lbf)")
+    k.add_argument("--method", choices=METHODS, default="static",
+                   help="static: per-frame static optimisation (default); collocation: activation dynamics over the cycle")
+    k.add_argument("--muscle-model", choices=MUSCLE_MODELS, default="ideal",
+                   help="ideal: F = a F0 (default); hill: De Groote et al. 2016 force-length-velocity curves "
+                        "with a rigid tendon (experimental: its passive quadriceps forces are unphysical in swing)")
+    k.add_argument("--out", required=True, help="folder for summary.json, loads.csv and plots")
+    k.add_argument("--no-plots", action="store_true", help="write no PNG plots")
+    k.set_defaults(handler=cli_knee)
+
+
+def cli_knee(args) -> int:
+    """Run ``knee``; input errors print one line and return 2."""
+    from ..biomech.knee_pipeline import run_knee, write_knee_results
+
+    try:
+        run = run_knee(args.model, args.motion, args.grf, args.measured, muscle_model=args.muscle_model,
+                       method=args.method)
+        summary = write_knee_results(run, args.out, plots=not args.no_plots,
+                                     inputs={"model": str(args.model), "motion": str(args.motion), "grf": str(args.grf),
+                                             "measured": None if args.measured is None else str(args.measured),
+                                             "method": args.method, "muscle_model": args.muscle_model})
+    except OcpConstraintsError as exc:
+        print(f"error: {exc}", file=sys.stderr)
+        return 2
+    w = summary["wall_time_s"]
+    print(f"knee: cycle {summary['gait_cycle_s'][0]:g}-{summary['gait_cycle_s'][1]:g} s, {summary['frames']} frames, "
+          f"{METHOD_TEXT[args.method]} {w['build'] + w['solve']:.2f} s; results in {args.out}")
+    if summary["comparison"]:
+        for k, v in summary["comparison"].items():
+            print(f"  {k}: RMSE {v['rmse_bw']:.2f} BW, r {v['r']:.2f}, peak error {v['peak_error_bw']:+.2f} BW")
+    return 0

@@ -1,0 +1,101 @@
+"""``list``, ``simulate`` and ``solve``: the commands that run a built-in or user scene."""
+from __future__ import annotations
+
+import sys
+
+
+def add_scene_parsers(sub) -> None:
+    """Register ``list``, ``simulate`` and ``solve`` (their handlers import the library only when run)."""
+    sub.add_parser("list", help="list the built-in scenes and their optimal-control tasks").set_defaults(
+        handler=lambda args: _list())
+    s = sub.add_parser("simulate", help="forward simulation with constraint loads")
+    s.add_argument("scene", help="built-in scene name or path of a scene file")
+    s.add_argument("--t-final", type=float, default=None, help="end time [s] (default: the scene's)")
+    s.add_argument("--dt", type=float, default=0.01, help="output sampling [s] (default 0.01)")
+    s.add_argument("--out", default=None, help="folder for summary.json, trajectory.csv, loads.csv and plots")
+    s.add_argument("--param", action="append", default=[], metavar="NAME=VALUE", help="override a scene parameter")
+    s.add_argument("--no-plots", action="store_true", help="write no PNG plots")
+    s.set_defaults(handler=_simulate)
+    o = sub.add_parser("solve", help="optimal control by direct collocation and IPOPT")
+    o.add_argument("scene", help="built-in scene name or path of a scene file")
+    o.add_argument("--task", default=None, help="task of the scene (default: its first)")
+    o.add_argument("--scheme", default="radau", choices=["trapezoidal", "hermite-simpson", "radau"],
+                   help="collocation scheme (default radau)")
+    o.add_argument("--degree", type=int, default=3, help="Radau degree, 1 to 9 (default 3)")
+    o.add_argument("--intervals", type=int, default=50, help="mesh intervals (default 50)")
+    o.add_argument("--out", default=None, help="folder for summary.json, trajectory.csv, loads.csv and plots")
+    o.add_argument("--param", action="append", default=[], metavar="NAME=VALUE", help="override a scene parameter")
+    o.add_argument("--no-plots", action="store_true", help="write no PNG plots")
+    o.add_argument("--reintegrate", action="store_true", help="forward-simulate the optimal inputs and report the deviation")
+    o.set_defaults(handler=_solve)
+
+
+def _list() -> int:
+    from ..scenes.registry import builtin_scene_names, load_scene_module
+
+    names = builtin_scene_names()
+    width = max(len(n) for n in names)
+    for n in names:
+        module = load_scene_module(n)
+        tasks = getattr(module, "TASKS", {})
+        extra = f"  [solve tasks: {', '.join(tasks)}]" if tasks else ""
+        print(f"{n:<{width}}  {getattr(module, 'DESCRIPTION', '').strip()}{extra}")
+    return 0
+
+
+def _simulate(args) -> int:
+    from ..errors import SimulationError
+    from ..scenes.registry import build_scene, parse_param_arguments
+    from ..dynamics.simulate import SimulationOptions
+    from ..scenes.tasks import run_simulation
+
+    scene = build_scene(args.scene, parse_param_arguments(args.param))
+    options = SimulationOptions(dt=args.dt)
+    try:
+        _, summary = run_simulation(scene, args.scene, args.t_final, args.out, options, plots=not args.no_plots)
+    except SimulationError as exc:
+        print(f"error: simulation stopped early: {exc}", file=sys.stderr)
+        if args.out:
+            print(f"partial results written to {args.out} (summary.json has \"success\": false)", file=sys.stderr)
+        return 1
+    res = summary["max_constraint_residual"]
+    print(
+        f"{args.scene}: simulated {summary['t_reached']:g} s in {summary['wall_time']['solve']:.2f} s; "
+        f"max residuals position {res['position']:.2e}, velocity {res['velocity']:.2e}; "
+        f"energy balance error {summary['energy']['relative_error']:.2e} (relative)"
+    )
+    if args.out:
+        print(f"results in {args.out}")
+    return 0
+
+
+def _solve(args) -> int:
+    from ..errors import OCPSolveError
+    from ..scenes.registry import build_task, parse_param_arguments
+    from ..scenes.tasks import run_optimal_control
+    from ..ocp.schemes import scheme_from_name
+
+    task, problem = build_task(args.scene, args.task, parse_param_arguments(args.param))
+    method = scheme_from_name(args.scheme, args.intervals, args.degree)
+    try:
+        sol, summary = run_optimal_control(problem, args.scene, task, method, args.out, plots=not args.no_plots,
+                                           reintegrate=args.reintegrate)
+    except OCPSolveError as exc:
+        print(f"error: {exc}", file=sys.stderr)
+        if args.out:
+            print(f"last iterate written to {args.out} (summary.json has \"success\": false)", file=sys.stderr)
+        return 1
+    res = summary["max_constraint_residual"]
+    print(
+        f"{args.scene} {task}: {summary['status']} in {sol.iterations} iterations, objective {sol.objective:.10g}; "
+        f"build {summary['wall_time']['build']:.2f} s, solve {summary['wall_time']['solve']:.3f} s; "
+        f"max residuals position {res['position']:.1e}, velocity {res['velocity']:.1e}"
+    )
+    for joint, work in summary["joint_work"].items():
+        if abs(work) > 1e-9:
+            print(f"  work done by joint '{joint}': {work:.6g} J")
+    if "reintegration" in summary:
+        print(f"  re-integration of the optimal inputs: max state deviation {summary['reintegration']['max_state_deviation']:.2e}")
+    if args.out:
+        print(f"results in {args.out}")
+    return 0

@@ -1,0 +1,179 @@
+"""A model: bodies, constraints grouped into joints, applied loads and actuator inputs.
+
+The model only describes; :mod:`ocp_constraints.mechanics.equations` turns it into equations and
+the tasks (simulate, inverse dynamics) use those. Everything is addressed by name.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import casadi as ca
+import numpy as np
+
+from .bodies import Body, Point
+from .constraints import Constraint, Joint, derive_prescription
+from ..errors import ModelError
+
+
+@dataclass(eq=False)
+class PointForce:
+    """Applied force (N, fixed basis) at a point; may depend on q, u, t and inputs."""
+
+    name: str
+    point: Point
+    force: ca.SX
+
+
+@dataclass(eq=False)
+class BodyTorque:
+    """Applied torque (N m, fixed basis) on ``body``; ``reaction_body`` gets the opposite."""
+
+    name: str
+    body: Body
+    torque: ca.SX
+    reaction_body: Body | None = None
+
+
+@dataclass
+class Model:
+    """Bodies + constraints + applied loads.
+
+    Parameters
+    ----------
+    name
+        Scene name, written into results.
+    gravity
+        Gravitational acceleration vector (m/s^2, fixed basis); applied at every center
+        of mass and counted in the potential energy.
+    parameters
+        The named parameter values the model was built with (SI), for the record.
+    """
+
+    name: str
+    gravity: tuple[float, float, float] = (0.0, 0.0, -9.81)
+    parameters: dict[str, float] = field(default_factory=dict)
+    bodies: dict[str, Body] = field(default_factory=dict)
+    joints: dict[str, Joint] = field(default_factory=dict)
+    forces: list[PointForce] = field(default_factory=list)
+    torques: list[BodyTorque] = field(default_factory=list)
+    inputs: dict[str, ca.SX] = field(default_factory=dict)
+
+    def __post_init__(self) -> None:
+        self.t = ca.SX.sym("t")
+        g = np.asarray(self.gravity, dtype=float)
+        if g.shape != (3,) or not np.all(np.isfinite(g)):
+            raise ModelError(f"model '{self.name}': gravity must be 3 finite numbers, got {self.gravity!r}")
+        self.gravity = tuple(g)
+
+    # -- building ----------------------------------------------------------------
+    def add_body(self, name: str, mass: float, inertia, rotation="313", *, check_inertia: bool = True) -> Body:
+        """Add a rigid body (see :class:`~ocp_constraints.mechanics.bodies.Body`, also for ``check_inertia``)."""
+        if name in self.bodies:
+            raise ModelError(f"model '{self.name}' already has a body named '{name}'")
+        body = Body(name, mass, inertia, rotation, check_inertia=check_inertia)
+        self.bodies[name] = body
+        return body
+
+    def add_input(self, name: str) -> ca.SX:
+        """Declare a scalar actuator input (a control); use it in applied loads."""
+        if name in self.inputs:
+            raise ModelError(f"model '{self.name}' already has an input named '{name}'")
+        s = ca.SX.sym(name)
+        self.inputs[name] = s
+        return s
+
+    @property
+    def input_vector(self) -> ca.SX:
+        return ca.vertcat(*self.inputs.values()) if self.inputs else ca.SX(0, 1)
+
+    def add_constraint(self, name: str, expression, joint: str | None = None, position=None, point: Point | None = None) -> Constraint:
+        """Add the scalar constraint ``expression = 0`` (paper eq. 25).
+
+        Parameters
+        ----------
+        name
+            Unique constraint name (results column ``<name>.lambda``).
+        expression
+            SX expression affine in point velocities ``P.v`` and ``body.omega``.
+        joint
+            Joint (group) name; defaults to ``name``. Constraints of one joint share one
+            application point per body.
+        position
+            Optional ``phi(q, t)`` with ``d(phi)/dt = pi`` on the constraint manifold, for
+            a holonomic constraint; its residual is checked and kept at zero.
+        point
+            Application point to use for the joint on ``point.body`` (default: the first
+            point a constraint of the joint uses on that body).
+        """
+        if any(name == c.name for j in self.joints.values() for c in j.constraints):
+            raise ModelError(f"model '{self.name}' already has a constraint named '{name}'")
+        joint_name = joint or name
+        j = self.joints.get(joint_name) or Joint(joint_name)
+        # Work on a copy of the joint's points: a rejected constraint changes nothing.
+        points = dict(j.points)
+        if point is not None:
+            existing = points.get(point.body.name)
+            if existing is not None and existing is not point:
+                raise ModelError(
+                    f"joint '{joint_name}' already acts at {existing.label} on body "
+                    f"'{point.body.name}'; a joint has one application point per body"
+                )
+            points[point.body.name] = point
+        e, shares = derive_prescription(
+            name, expression, list(self.bodies.values()), self.t, self.input_vector, points
+        )
+        if position is not None:
+            position = ca.SX(position)
+            if position.shape != (1, 1):
+                raise ModelError(f"constraint '{name}': position form must be scalar")
+        c = Constraint(name, joint_name, expression, e, shares, position)
+        j.points = points
+        j.constraints.append(c)
+        self.joints[joint_name] = j
+        return c
+
+    def add_force(self, name: str, point: Point, force) -> PointForce:
+        """Apply a force (N, fixed basis) at ``point``."""
+        f = PointForce(name, point, _vector3(force, f"force '{name}'"))
+        self.forces.append(f)
+        return f
+
+    def add_torque(self, name: str, body: Body, torque, reaction_body: Body | None = None) -> BodyTorque:
+        """Apply a torque (N m, fixed basis) to ``body`` (and minus it to ``reaction_body``)."""
+        tq = BodyTorque(name, body, _vector3(torque, f"torque '{name}'"), reaction_body)
+        self.torques.append(tq)
+        return tq
+
+    # -- queries -----------------------------------------------------------------
+    @property
+    def constraints(self) -> list[Constraint]:
+        return [c for j in self.joints.values() for c in j.constraints]
+
+    @property
+    def coordinate_names(self) -> list[str]:
+        return [n for b in self.bodies.values() for n in b.coordinate_names]
+
+    @property
+    def speed_names(self) -> list[str]:
+        return [n for b in self.bodies.values() for n in b.speed_names]
+
+    def body(self, name: str) -> Body:
+        try:
+            return self.bodies[name]
+        except KeyError:
+            raise ModelError(f"model '{self.name}' has no body '{name}' (bodies: {', '.join(self.bodies)})") from None
+
+    def joint(self, name: str) -> Joint:
+        try:
+            return self.joints[name]
+        except KeyError:
+            raise ModelError(f"model '{self.name}' has no joint '{name}' (joints: {', '.join(self.joints)})") from None
+
+
+def _vector3(value, what: str) -> ca.SX:
+    v = ca.SX(value) if not isinstance(value, ca.SX) else value
+    if v.shape == (1, 3):
+        v = v.T
+    if v.shape != (3, 1):
+        raise ModelError(f"{what} must be a 3-vector, got shape {v.shape}")
+    return v

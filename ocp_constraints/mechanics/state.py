@@ -1,0 +1,159 @@
+"""Consistent initial states: coordinates checked against the constraints, speeds solved.
+
+A user gives every coordinate and *some* rates (coordinate rates such as
+``disk.psi_dot`` or speeds such as ``disk.vbar_x``); the remaining speeds follow from
+the constraints ``G u + e = 0``. Where the constraints leave freedom, the rates the
+user did not mention are made as small as possible (zero when they can be).
+"""
+from __future__ import annotations
+
+import casadi as ca
+import numpy as np
+import scipy.linalg
+
+from .equations import SystemEquations
+from ..errors import InconsistentStateError, ModelError
+from .rotations import UnitQuaternion
+
+POSITION_TOL = 1e-9
+VELOCITY_TOL = 1e-9
+
+
+def coordinate_vector(eqs: SystemEquations, coordinates: dict[str, float]) -> np.ndarray:
+    """Coordinates in model order from a name -> value map (every coordinate required)."""
+    names = eqs.model.coordinate_names
+    unknown = sorted(set(coordinates) - set(names))
+    if unknown:
+        raise ModelError(f"unknown coordinate(s) {unknown}; the model's coordinates are {names}")
+    missing = [n for n in names if n not in coordinates]
+    if missing:
+        raise ModelError(f"initial coordinates missing for {missing}")
+    q = np.array([float(coordinates[n]) for n in names])
+    bad = [n for n, v in zip(names, q) if not np.isfinite(v)]
+    if bad:
+        raise ModelError(f"initial coordinate(s) {bad} are not finite")
+    return q
+
+
+def rate_rows(eqs: SystemEquations, q: np.ndarray) -> tuple[list[str], np.ndarray]:
+    """Names and rows ``S`` such that ``S u`` gives each named rate at ``q``.
+
+    Names are the coordinate rates ``<body>.<coordinate>_dot`` and the speeds
+    ``<body>.vbar_x`` ... ``<body>.omega_z``.
+    """
+    N = np.asarray(ca.Function("N", [eqs.q], [ca.jacobian(eqs.qdot, eqs.u)])(q))
+    names = [f"{n}_dot" for n in eqs.model.coordinate_names] + eqs.model.speed_names
+    return names, np.vstack([N, np.eye(eqs.nu)])
+
+
+def _check_position_forms(eqs: SystemEquations, q: np.ndarray, t0: float, inputs: np.ndarray) -> None:
+    """Each position form ``phi`` must have ``d(phi)/dt = pi`` (checked at ``q`` for random speeds)."""
+    if not eqs.holonomic:
+        return
+    rng = np.random.default_rng(0)
+    for _ in range(3):
+        u = rng.standard_normal(eqs.nu)
+        mismatch = np.asarray(eqs.position_form_mismatch(q, u, t0, inputs)).ravel()
+        for k, i in enumerate(eqs.holonomic):
+            if abs(mismatch[k]) > 1e-7 * (1 + np.abs(u).max()):
+                raise ModelError(
+                    f"the position form of constraint '{eqs.constraint_names[i]}' does not match the "
+                    f"constraint: d(phi)/dt - pi = {mismatch[k]:.3g} at the initial state. phi(q, t) must "
+                    "be the time integral of pi (check its sign and scale), or leave it out."
+                )
+
+
+def consistent_state(eqs: SystemEquations, coordinates: dict[str, float], rates: dict[str, float], t0: float = 0.0,
+                     inputs=None) -> tuple[np.ndarray, np.ndarray]:
+    """Return ``(q0, u0)`` satisfying every constraint at ``t0`` (with ``inputs`` at ``t0``, default zero).
+
+    Raises :class:`InconsistentStateError` naming the constraint that the coordinates
+    violate, or the given rates that contradict the constraints, and
+    :class:`RedundantConstraintsError` if constraints repeat each other.
+    """
+    q = coordinate_vector(eqs, coordinates)
+    inputs = np.zeros(eqs.inputs.numel()) if inputs is None else np.asarray(inputs, float).reshape(eqs.inputs.numel())
+    for b in eqs.bodies:
+        sl = eqs.model.coordinate_names.index(b.coordinate_names[0])
+        b.check_singularity(q[sl : sl + b.q.numel()], f"at t = {t0:g}")
+    G, e, phi, _, _ = (np.asarray(x) for x in eqs.constraint_functions(q, np.zeros(eqs.nu), t0, inputs))
+    phi = phi.ravel()
+    for k, i in enumerate(eqs.holonomic):
+        if abs(phi[k]) > POSITION_TOL:
+            raise InconsistentStateError(
+                f"initial coordinates violate constraint '{eqs.constraint_names[i]}' at position "
+                f"level: residual {phi[k]:.3g} (tolerance {POSITION_TOL:g}). Fix the initial "
+                "coordinates (e.g. the height of a body in contact)."
+            )
+    _check_position_forms(eqs, q, t0, inputs)
+    eqs.check_redundancy(q, t0)
+    names, S = rate_rows(eqs, q)
+    unknown = sorted(set(rates) - set(names))
+    if unknown:
+        raise ModelError(f"unknown rate(s) {unknown}; valid names: {names}")
+    given = [names.index(n) for n in rates]
+    values = np.array([float(rates[n]) for n in rates])
+    if not np.all(np.isfinite(values)):
+        raise ModelError(f"initial rates must be finite, got {rates}")
+    A = np.vstack([G, S[given]]) if given else G
+    b = np.concatenate([-e.ravel(), values])
+    u, *_ = np.linalg.lstsq(A, b, rcond=None)
+    residual = A @ u - b
+    if np.abs(residual).max(initial=0.0) > VELOCITY_TOL * max(1.0, np.abs(b).max(initial=0.0)):
+        bad = [eqs.constraint_names[i] for i in range(eqs.nc) if abs(residual[i]) > VELOCITY_TOL]
+        raise InconsistentStateError(
+            f"the given initial rates {sorted(rates)} contradict the constraints "
+            f"{bad or eqs.constraint_names}: no speeds satisfy both (residual "
+            f"{np.abs(residual).max():.3g}). Give fewer rates and let the constraints fix the rest."
+        )
+    Z = scipy.linalg.null_space(A)
+    if Z.size:
+        mentioned = set(given)
+        rest = [i for i in range(len(names) - eqs.nu) if i not in mentioned]
+        R = S[rest]
+        w, *_ = np.linalg.lstsq(R @ Z, -R @ u, rcond=None)
+        u = u + Z @ w
+    return q, u
+
+
+def project_positions(eqs: SystemEquations, q: np.ndarray, t: float, iterations: int = 8, inputs=None) -> np.ndarray:
+    """Nearest coordinates on ``phi(q, t) = 0`` (Gauss-Newton, minimum-norm steps), unit quaternions."""
+    q = np.array(q, dtype=float)
+    start = 0
+    for b in eqs.bodies:
+        n = b.q.numel()
+        if isinstance(b.rotation, UnitQuaternion):
+            q[start + 3 : start + n] /= np.linalg.norm(q[start + 3 : start + n])
+        start += n
+    if eqs.holonomic:
+        u0 = np.zeros(eqs.nu)
+        w = np.zeros(eqs.inputs.numel()) if inputs is None else inputs
+        for _ in range(iterations):
+            _, _, phi, _, J = eqs.constraint_functions(q, u0, t, w)
+            phi, J = np.asarray(phi).ravel(), np.asarray(J)
+            if np.abs(phi).max() < 1e-15:
+                break
+            q -= np.linalg.lstsq(J, phi, rcond=None)[0]
+    return q
+
+
+def project_speeds(eqs: SystemEquations, q: np.ndarray, u: np.ndarray, t: float, inputs=None) -> np.ndarray:
+    """Speeds nearest to ``u`` in the kinetic-energy metric with ``G u + e = 0``.
+
+    Solved through the KKT matrix ``[M, G^T; G, 0]`` (``M`` may be singular for a thin rod).
+    """
+    if not eqs.nc:
+        return np.array(u, dtype=float)
+    w = np.zeros(eqs.inputs.numel()) if inputs is None else inputs
+    G, _, _, r, _ = eqs.constraint_functions(q, u, t, w)
+    G, r = np.asarray(G), np.asarray(r).ravel()
+    M = np.asarray(eqs.mass_matrix_function(q))
+    K = np.block([[M, G.T], [G, np.zeros((eqs.nc, eqs.nc))]])
+    return np.asarray(u, float) + np.linalg.solve(K, np.concatenate([np.zeros(eqs.nu), -r]))[: eqs.nu]
+
+
+def project_state(eqs: SystemEquations, q: np.ndarray, u: np.ndarray, t: float, inputs=None) -> tuple[np.ndarray, np.ndarray, float, float]:
+    """Project ``(q, u)`` onto the constraint manifold; also return the sizes of the corrections."""
+    q_new = project_positions(eqs, q, t, inputs=inputs)
+    u_new = project_speeds(eqs, q_new, u, t, inputs)
+    return q_new, u_new, float(np.linalg.norm(q_new - q)), float(np.linalg.norm(u_new - u))

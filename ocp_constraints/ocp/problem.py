@@ -1,0 +1,182 @@
+"""Optimal control of constrained rigid bodies: the problem, knowing no solver.
+
+Declare on a model the horizon, the objective, bounds, boundary conditions and path
+constraints (on coordinates, speeds, inputs and constraint loads), then
+``solve(Radau(50, degree=3))``. Quantities are addressed by name: coordinates
+(``rod.psi``), coordinate rates (``rod.psi_dot``), speeds (``rod.omega_z``), inputs
+(``motor``), and multipliers via :meth:`OptimalControlProblem.multiplier`.
+
+The transcription (see :mod:`ocp_constraints.ocp.transcription`) keeps the constraints
+without drift: position-level forms ``phi = 0`` and velocity-level constraints
+``G u + e = 0`` hold at every collocation point, with the kinematic slack of Posa et
+al. (2016) that keeps the discretized system consistent.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from typing import Callable
+
+import casadi as ca
+import numpy as np
+
+from ..mechanics.equations import SystemEquations
+from ..errors import ModelError
+from ..mechanics.model import Model
+
+
+@dataclass
+class IntegralTerm:
+    label: str
+    expression: ca.SX
+    weight: float
+
+
+@dataclass
+class PathConstraint:
+    label: str
+    expression: ca.SX
+    lower: float
+    upper: float
+
+
+@dataclass
+class OptimalControlProblem:
+    """A direct optimal-control problem on a model (problem only; no solver inside).
+
+    Parameters
+    ----------
+    model
+        Bodies, constraints, loads and inputs (the controls).
+    t_final
+        Fixed horizon (s), or the initial guess of a free one.
+    t_final_bounds
+        ``(lower, upper)`` makes the final time a decision variable.
+    """
+
+    model: Model
+    t_final: float = 1.0
+    t_final_bounds: tuple[float, float] | None = None
+    integral_terms: list[IntegralTerm] = field(default_factory=list)
+    path_constraints: list[PathConstraint] = field(default_factory=list)
+    time_weight: float = 0.0
+    bounds: dict[str, tuple[float, float]] = field(default_factory=dict)
+    initial_values: dict[str, float] = field(default_factory=dict)
+    final_values: dict[str, float] = field(default_factory=dict)
+    guess: dict[str, Callable[[np.ndarray], np.ndarray]] = field(default_factory=dict)
+
+    def __post_init__(self) -> None:
+        if not (np.isfinite(self.t_final) and self.t_final > 0):
+            raise ModelError(f"t_final must be a positive number of seconds, got {self.t_final!r}")
+        self.eqs = SystemEquations(self.model)
+        self.lam = ca.SX.sym("lam", self.eqs.nc)
+        e = self.eqs
+        self._named: dict[str, ca.SX] = {}
+        for i, n in enumerate(self.model.coordinate_names):
+            self._named[n] = e.q[i]
+            self._named[f"{n}_dot"] = e.qdot[i]
+        for i, n in enumerate(self.model.speed_names):
+            self._named[n] = e.u[i]
+        for i, n in enumerate(self.model.inputs):
+            self._named[n] = e.inputs[i]
+
+    # -- names ------------------------------------------------------------------------
+    def quantity(self, name: str) -> ca.SX:
+        """A named coordinate, rate, speed or input as an expression."""
+        if name not in self._named:
+            raise ModelError(f"no quantity named '{name}' in model '{self.model.name}'; names: {sorted(self._named)}")
+        return self._named[name]
+
+    def multiplier(self, constraint: str) -> ca.SX:
+        """The multiplier ``lambda`` of a scalar constraint, for objectives and path constraints."""
+        names = self.eqs.constraint_names
+        if constraint not in names:
+            raise ModelError(f"no constraint '{constraint}'; constraints: {names}")
+        return self.lam[names.index(constraint)]
+
+    def joint_force(self, channel: str) -> ca.SX:
+        """``F_c`` of a joint load channel (fixed basis) as an expression of the multipliers."""
+        names = [ch.prefix for ch in self.eqs.load_channels]
+        if channel not in names:
+            raise ModelError(f"no joint load '{channel}'; joint loads: {names}")
+        return self.eqs.joint_load_expressions(self.lam)[names.index(channel)]["F"]
+
+    # -- objective -----------------------------------------------------------------------
+    def minimize_integral(self, expression, weight: float = 1.0, label: str = "integral") -> None:
+        """Add ``weight * int expression dt`` (expression of q, u, inputs, lambda, t)."""
+        self.integral_terms.append(IntegralTerm(label, ca.SX(expression), float(weight)))
+
+    def minimize_effort(self, inputs: list[str] | None = None, weight: float = 1.0) -> None:
+        """``int sum tau_i^2 dt`` over the named inputs (default: all)."""
+        names = list(self.model.inputs) if inputs is None else inputs
+        if not names:
+            raise ModelError(f"model '{self.model.name}' has no inputs to minimize")
+        self.minimize_integral(sum(self.quantity(n) ** 2 for n in names), weight, "effort")
+
+    def minimize_load_effort(self, constraints: list[str], weights: list[float] | None = None) -> None:
+        """``int lambda^T W lambda dt`` over the named constraints (W diagonal)."""
+        w = [1.0] * len(constraints) if weights is None else weights
+        self.minimize_integral(sum(wi * self.multiplier(c) ** 2 for c, wi in zip(constraints, w)), 1.0, "load_effort")
+
+    def minimize_final_time(self, weight: float = 1.0) -> None:
+        if self.t_final_bounds is None:
+            raise ModelError("minimize_final_time needs a free final time (t_final_bounds)")
+        self.time_weight += float(weight)
+
+    def track(self, name: str, reference: Callable, weight: float = 1.0) -> None:
+        """``weight * int (quantity - reference(t))^2 dt``; ``reference`` takes a CasADi time."""
+        self.minimize_integral((self.quantity(name) - reference(self.eqs.t)) ** 2, weight, f"track {name}")
+
+    # -- constraints -------------------------------------------------------------------------
+    def bound(self, name: str, lower: float = -np.inf, upper: float = np.inf) -> None:
+        """Bounds on a coordinate, speed or input at every point (rates go to path constraints)."""
+        self.quantity(name)
+        if lower > upper:
+            raise ModelError(f"bound on '{name}': lower {lower} exceeds upper {upper}")
+        self.bounds[name] = (float(lower), float(upper))
+
+    def subject_to(self, expression, lower: float = -np.inf, upper: float = np.inf, label: str = "path") -> None:
+        """Path constraint ``lower <= expression <= upper`` at every point."""
+        self.path_constraints.append(PathConstraint(label, ca.SX(expression), float(lower), float(upper)))
+
+    def friction_cone(self, channel: str, mu: float, normal=(0.0, 0.0, 1.0)) -> None:
+        """``N = F . n >= 0`` and ``|F - N n|^2 <= mu^2 N^2`` for a contact's load ``F``."""
+        n = ca.DM(np.asarray(normal, dtype=float) / np.linalg.norm(normal))
+        F = self.joint_force(channel)
+        N = ca.dot(F, n)
+        Ft = F - N * n
+        self.subject_to(N, 0.0, np.inf, f"{channel} normal force")
+        self.subject_to(ca.dot(Ft, Ft) - mu**2 * N**2, -np.inf, 0.0, f"{channel} friction cone")
+
+    def initial(self, values: dict[str, float]) -> None:
+        """Values at ``t = 0`` of named coordinates, rates, speeds or inputs."""
+        for k in values:
+            self.quantity(k)
+        self.initial_values.update({k: float(v) for k, v in values.items()})
+
+    def final(self, values: dict[str, float]) -> None:
+        """Values at the final time."""
+        for k in values:
+            self.quantity(k)
+        self.final_values.update({k: float(v) for k, v in values.items()})
+
+    def set_guess(self, name: str, values: Callable[[np.ndarray], np.ndarray]) -> None:
+        """Initial guess of a coordinate, speed or input as a function of time (array in, array out)."""
+        self.quantity(name)
+        self.guess[name] = values
+
+    def solve(self, method, ipopt_options: dict | None = None, warm_start=None):
+        """Transcribe with ``method`` (a :mod:`~ocp_constraints.ocp.schemes` scheme) and solve with IPOPT.
+
+        The transcription is built once per method and reused by later solves.
+        ``warm_start``: a solution of this problem to start from, on the same or another
+        mesh or scheme (e.g. a coarse solve before a fine one).
+        Returns an :class:`~ocp_constraints.ocp.solution.OCPSolution`; a failed solve
+        raises :class:`~ocp_constraints.ocp.solution.OCPSolveError` carrying the last iterate.
+        """
+        from .transcription import transcribe
+
+        key = (method.label, method.intervals, None if method.mesh is None else tuple(method.mesh))
+        cache = self.__dict__.setdefault("_transcriptions", {})
+        if key not in cache:
+            cache[key] = transcribe(self, method)
+        return cache[key].solve(ipopt_options or {}, warm_start)

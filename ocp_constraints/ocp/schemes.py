@@ -1,0 +1,214 @@
+"""Collocation schemes: how one mesh interval is discretized.
+
+A scheme is a small strategy object. Each interval ``[t_k, t_k + h]`` carries states
+``X_j`` and state derivatives ``D_j`` at local points ``tau_j`` (``tau_0 = 0``,
+``tau_last = 1``; the last point of an interval is the first of the next). The
+implicit dynamics are imposed at every point; the scheme supplies the *defects* that
+tie ``X`` and ``D`` together and the quadrature weights of integral costs:
+
+- :class:`Trapezoidal`: ``X_1 - X_0 = h/2 (D_0 + D_1)`` (second order);
+- :class:`HermiteSimpson` (separated form): ``X_m = (X_0 + X_1)/2 + h/8 (D_0 - D_1)``,
+  ``X_1 - X_0 = h/6 (D_0 + 4 D_m + D_1)`` (fourth order);
+- :class:`Radau`: Legendre-Gauss-Radau collocation of degree ``d``,
+  ``h D_j = sum_r C_rj X_r`` at the ``d`` Radau points (order ``2d - 1`` at the mesh
+  points).
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import casadi as ca
+import numpy as np
+
+from ..errors import ModelError
+
+
+def _lagrange_derivative_matrix(tau: np.ndarray) -> np.ndarray:
+    """``C[r, j] = l_r'(tau_j)`` for the Lagrange basis ``l_r`` through ``tau``."""
+    n = len(tau)
+    C = np.zeros((n, n))
+    for r in range(n):
+        p = np.poly1d([1.0])
+        for s in range(n):
+            if s != r:
+                p *= np.poly1d([1.0, -tau[s]]) / (tau[r] - tau[s])
+        dp = np.polyder(p)
+        C[r] = dp(tau)
+    return C
+
+
+def _quadrature_weights(points: np.ndarray) -> np.ndarray:
+    """``int_0^1 l_j(tau) dtau`` for the Lagrange basis through ``points``."""
+    w = np.zeros(len(points))
+    for j in range(len(points)):
+        p = np.poly1d([1.0])
+        for s in range(len(points)):
+            if s != j:
+                p *= np.poly1d([1.0, -points[s]]) / (points[j] - points[s])
+        P = np.polyint(p)
+        w[j] = P(1.0) - P(0.0)
+    return w
+
+
+@dataclass(frozen=True)
+class Scheme:
+    """Base class: a uniform mesh of ``intervals`` or a user-given ``mesh`` on ``[0, 1]``."""
+
+    intervals: int = 50
+    mesh: tuple[float, ...] | None = None
+    tau: np.ndarray = field(init=False, repr=False, compare=False)
+
+    def __post_init__(self) -> None:
+        if self.mesh is not None:
+            m = np.asarray(self.mesh, dtype=float)
+            if m.ndim != 1 or len(m) < 2 or m[0] != 0.0 or m[-1] != 1.0 or np.any(np.diff(m) <= 0):
+                raise ModelError("mesh must be increasing fractions of the horizon from 0.0 to 1.0")
+            object.__setattr__(self, "intervals", len(m) - 1)
+        elif not (isinstance(self.intervals, int) and self.intervals >= 1):
+            raise ModelError(f"intervals must be a positive whole number, got {self.intervals!r}")
+
+    @property
+    def mesh_fractions(self) -> np.ndarray:
+        if self.mesh is not None:
+            return np.asarray(self.mesh, dtype=float)
+        return np.linspace(0.0, 1.0, self.intervals + 1)
+
+    @property
+    def label(self) -> str:
+        return type(self).__name__.lower()
+
+    def defects(self, X: list, D: list, h) -> list:
+        raise NotImplementedError
+
+    @property
+    def weights(self) -> np.ndarray:
+        """Quadrature weights over the local points (sum 1; multiply by ``h``)."""
+        raise NotImplementedError
+
+    @property
+    def first_point_has_controls(self) -> bool:
+        """False where the scheme never uses controls at ``t_0`` (Radau): they are tied to the next point."""
+        return True
+
+    @property
+    def derivative_matrix(self) -> np.ndarray | None:
+        """``C`` with ``h x'(tau_j) = sum_r C[r, j] x_r`` at the points after ``tau_0``, where the
+        scheme defines derivatives from states alone (Radau); else None."""
+        return None
+
+    @property
+    def accelerations_from_speeds(self) -> np.ndarray | None:
+        """``C`` where the NLP should take ``u'`` from the speeds instead of variables, else None."""
+        return None
+
+    @property
+    def order(self) -> int:
+        raise NotImplementedError
+
+
+@dataclass(frozen=True)
+class Trapezoidal(Scheme):
+    def __post_init__(self) -> None:
+        super().__post_init__()
+        object.__setattr__(self, "tau", np.array([0.0, 1.0]))
+
+    def defects(self, X, D, h):
+        return [X[1] - X[0] - h / 2 * (D[0] + D[1])]
+
+    @property
+    def weights(self):
+        return np.array([0.5, 0.5])
+
+    @property
+    def order(self) -> int:
+        return 2
+
+
+@dataclass(frozen=True)
+class HermiteSimpson(Scheme):
+    def __post_init__(self) -> None:
+        super().__post_init__()
+        object.__setattr__(self, "tau", np.array([0.0, 0.5, 1.0]))
+
+    @property
+    def label(self) -> str:
+        return "hermite-simpson"
+
+    def defects(self, X, D, h):
+        return [
+            X[1] - (X[0] + X[2]) / 2 - h / 8 * (D[0] - D[2]),
+            X[2] - X[0] - h / 6 * (D[0] + 4 * D[1] + D[2]),
+        ]
+
+    @property
+    def weights(self):
+        return np.array([1.0, 4.0, 1.0]) / 6
+
+    @property
+    def order(self) -> int:
+        return 4
+
+
+@dataclass(frozen=True)
+class Radau(Scheme):
+    degree: int = 3
+
+    def __post_init__(self) -> None:
+        super().__post_init__()
+        if not (isinstance(self.degree, int) and 1 <= self.degree <= 9):
+            raise ModelError(f"Radau degree must be a whole number from 1 to 9, got {self.degree!r}")
+        object.__setattr__(self, "tau", np.array([0.0, *ca.collocation_points(self.degree, "radau")]))
+
+    @property
+    def label(self) -> str:
+        return f"radau{self.degree}"
+
+    def defects(self, X, D, h):
+        C = self.derivative_matrix
+        return [h * D[j] - sum(C[r, j] * X[r] for r in range(len(X))) for j in range(1, len(X))]
+
+    @property
+    def derivative_matrix(self) -> np.ndarray:
+        return _lagrange_derivative_matrix(self.tau)
+
+    @property
+    def accelerations_from_speeds(self) -> np.ndarray | None:
+        # Up to degree 4 fewer variables make IPOPT's factorization cheaper; from degree 6
+        # on, the denser Hessian blocks (each point's dynamics reads all the interval's
+        # speeds) cost more than they save: per iteration on the swing-up, N = 20, degree 3
+        # -12 %, degree 5 -4 % (but +15 % at N = 80), degree 9 +48 %
+        # (python scripts/radau_acceleration_variables.py).
+        return self.derivative_matrix if self.degree <= 4 else None
+
+    @property
+    def weights(self):
+        # Radau quadrature over the d collocation points (exact to degree 2d - 2).
+        return np.concatenate([[0.0], _quadrature_weights(self.tau[1:])])
+
+    @property
+    def first_point_has_controls(self) -> bool:
+        return False
+
+    @property
+    def start_extrapolation(self) -> np.ndarray:
+        """``l_j(0)`` for the Lagrange basis through the collocation points: inputs at ``t_0``
+        are the first interval's input polynomial extrapolated there."""
+        pts = self.tau[1:]
+        return np.array([np.prod([(0.0 - pts[s]) / (pts[j] - pts[s]) for s in range(len(pts)) if s != j])
+                         for j in range(len(pts))])
+
+    @property
+    def order(self) -> int:
+        return 2 * self.degree - 1
+
+
+def scheme_from_name(name: str, intervals: int = 50, degree: int = 3, mesh=None) -> Scheme:
+    """``"trapezoidal"``, ``"hermite-simpson"`` or ``"radau"`` (with ``degree``)."""
+    mesh = None if mesh is None else tuple(float(m) for m in mesh)
+    if name == "trapezoidal":
+        return Trapezoidal(intervals, mesh)
+    if name in ("hermite-simpson", "hermite_simpson"):
+        return HermiteSimpson(intervals, mesh)
+    if name == "radau":
+        return Radau(intervals, mesh, degree=degree)
+    raise ModelError(f"unknown transcription '{name}': use trapezoidal, hermite-simpson or radau")

@@ -1,0 +1,128 @@
+"""The result of an optimal-control solve, queried by name.
+
+``sol.sample("rod.psi")``, ``sol.loads()["hinge.M_z"]``, ``sol.interpolate("motor", t)``;
+``sol.success``, ``sol.status``, ``sol.iterations``, ``sol.objective``, wall times, and
+the constraint residuals at every collocation point. The samples are the collocation
+points (mesh points and interior points, in time order).
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+
+
+from ..dynamics.trajectory import Trajectory
+
+
+@dataclass
+class OCPSolution:
+    """States, accelerations ``D = u'``, multipliers and inputs at the collocation points, and solver stats."""
+
+    transcription: object
+    decision_vector: np.ndarray
+    t: np.ndarray
+    X: np.ndarray
+    D: np.ndarray
+    lam: np.ndarray
+    inputs: np.ndarray
+    t_final: float
+    objective: float
+    stats: dict
+    wall_time: dict
+    trajectory: Trajectory = field(repr=False, default=None)
+
+    @classmethod
+    def from_vector(cls, tr, w: np.ndarray, stats: dict, objective: float, wall_time: dict) -> "OCPSolution":
+        lay = tr.layout
+        X, A, L, W, _, T = (np.asarray(a, float) for a in lay.split(w))
+        t_final = float(T[0]) if lay.free_time else float(tr.problem.t_final)
+        D = tr.accelerations(X, A, t_final)
+        t = tr.fractions * t_final
+        eqs = tr.eqs
+        traj = Trajectory(eqs)
+        for i in range(lay.n_points):
+            traj.append(t[i], X[: eqs.nq, i], X[eqs.nq :, i], D[:, i], L[:, i], W[:, i], np.zeros(eqs.nc), 0.0, 0.0)
+        return cls(tr, w, t, X, D, L, W, t_final, objective, dict(stats), wall_time, traj)
+
+    # -- status -------------------------------------------------------------------------------
+    @property
+    def success(self) -> bool:
+        return bool(self.stats.get("success", False))
+
+    @property
+    def status(self) -> str:
+        return str(self.stats.get("return_status", "unknown"))
+
+    @property
+    def iterations(self) -> int:
+        return int(self.stats.get("iter_count", -1))
+
+    def residuals(self) -> tuple[float, float]:
+        """Largest position- and velocity-level constraint residuals over all points."""
+        return self.trajectory.residuals()
+
+    # -- named access -------------------------------------------------------------------------
+    def sample(self, name: str) -> np.ndarray:
+        """A coordinate, rate, speed, multiplier (``<constraint>.lambda``) or input at every point."""
+        inputs = list(self.transcription.problem.model.inputs)
+        if name in inputs:
+            return self.inputs[inputs.index(name)]
+        return self.trajectory.sample(name)
+
+    def loads(self) -> dict[str, np.ndarray]:
+        """Per constraint ``lambda`` and per joint ``F``, ``M``, ``point``, ``power`` (DESIGN.md)."""
+        return self.trajectory.loads()
+
+    def interpolate(self, name: str, times) -> np.ndarray:
+        """A named quantity between points through each interval's collocation polynomial.
+
+        Radau: the Lagrange polynomial through the interval's points; trapezoidal and
+        Hermite-Simpson: the same construction through their points (the state
+        polynomials of those schemes have the same degree).
+        """
+        values = self.sample(name)
+        scheme = self.transcription.scheme
+        p = len(scheme.tau)
+        mesh = scheme.mesh_fractions * self.t_final
+        times = np.atleast_1d(np.asarray(times, dtype=float))
+        k = np.clip(np.searchsorted(mesh, times, side="right") - 1, 0, scheme.intervals - 1)
+        out = np.empty_like(times)
+        for n, (tk, kk) in enumerate(zip(times, k)):
+            idx = np.arange(kk * (p - 1), kk * (p - 1) + p)
+            ts, vs = self.t[idx], values[idx]
+            out[n] = sum(vs[j] * np.prod([(tk - ts[s]) / (ts[j] - ts[s]) for s in range(p) if s != j]) for j in range(p))
+        return out
+
+
+    def joint_work(self) -> dict[str, float]:
+        """Work of each joint load over the horizon (J): the scheme's quadrature of ``power``."""
+        quad = self.transcription.quadrature * self.t_final
+        loads = self.loads()
+        return {ch.prefix: float(quad @ loads[f"{ch.prefix}.power"]) for ch in self.transcription.eqs.load_channels}
+
+    def reintegrate(self, dt: float | None = None) -> dict:
+        """Forward-simulate the optimal inputs from the initial state and report the deviation.
+
+        The inputs are the collocation polynomials (linear between simulator samples);
+        the simulator is the core's (CVODES, rtol 1e-12). Returns the largest deviation of
+        the coordinates and speeds over the samples and at the final time, and the
+        simulated :class:`Trajectory`.
+        """
+        from ..dynamics.simulate import SimulationOptions, simulate
+
+        eqs = self.transcription.eqs
+        names = list(self.transcription.problem.model.inputs)
+        step = dt or self.t_final / (20 * self.transcription.scheme.intervals)
+
+        def inputs(t: float) -> np.ndarray:
+            return np.array([self.interpolate(n, min(t, self.t_final))[0] for n in names])
+
+        traj = simulate(eqs, self.X[: eqs.nq, 0], self.X[eqs.nq :, 0], self.t_final,
+                        SimulationOptions(dt=step, projection_interval=step), inputs=inputs if names else None)
+        state_names = eqs.model.coordinate_names + eqs.model.speed_names
+        sim = np.hstack([traj.q, traj.u])
+        col = np.column_stack([self.interpolate(n, traj.t) for n in state_names])
+        deviation = np.abs(sim - col)
+        return {"max_state_deviation": float(deviation.max()), "final_state_deviation": float(deviation[-1].max()),
+                "worst": state_names[int(deviation.max(axis=0).argmax())], "trajectory": traj}

@@ -1,0 +1,416 @@
+"""Direct collocation of an :class:`OptimalControlProblem` into an IPOPT NLP.
+
+Variables at every collocation point ``i`` (unique times over the mesh): states
+``x_i = (q_i, u_i)``, accelerations ``a_i = u'_i``, multipliers ``lambda_i``, inputs
+``w_i``, and (except at ``t_0``) the kinematic slack ``gamma_i`` of Posa et al. (2016).
+The state derivative at a point is ``D = (N(q) u + phi_q^T gamma, a)`` (the coordinate
+rates are expressions, not variables); constraints at every point: the implicit dynamics
+
+    M(q) a = f(q, u, t, w) + G^T lambda,
+
+the velocity-level constraints ``G u + e = 0`` and the position-level forms
+``phi(q, t) = 0``. Why this choice: imposing both ``phi = 0`` and ``G u + e = 0`` makes
+the solution drift-free at every point (the contract of DESIGN.md); the slack
+``gamma`` absorbs the discretization's mismatch between the two (it vanishes as the
+mesh is refined), so the NLP stays consistent, as in Moco. At ``t_0`` the
+acceleration-level constraint ``G a + gamma_acc = 0`` determines ``lambda_0``. The
+scheme's defects tie ``x`` and ``D`` (see :mod:`ocp_constraints.ocp.schemes`).
+Radau defines ``h u'_j = sum_r C_rj u_r`` at its collocation points; up to degree 4
+``a_j`` is that expression there, not a variable, and only the coordinate defects
+remain: the same NLP with ``nu`` fewer variables and rows per point (IPOPT's
+factorization is cheaper; see ``Scheme.accelerations_from_speeds``).
+The NLP is a few kinds of SX elements (one point, one interval, the boundary rows)
+repeated over the mesh; IPOPT gets exact derivatives assembled from each element's own
+(:mod:`ocp_constraints.ocp.nlp_assembly`), so the build grows like the mesh.
+"""
+from __future__ import annotations
+
+import time
+from dataclasses import dataclass
+from types import SimpleNamespace
+
+import casadi as ca
+import numpy as np
+
+from ..errors import ModelError
+from .nlp_assembly import BlockNLP, element
+from .solution import OCPSolution
+from ..errors import OCPSolveError
+from ..mechanics.rotations import EulerSequence
+from ..mechanics.state import project_positions
+from .schemes import Scheme
+
+DEFAULT_IPOPT = {"ipopt.tol": 1e-10, "ipopt.constr_viol_tol": 1e-10, "ipopt.max_iter": 3000,
+                 "ipopt.print_level": 0, "print_time": False, "ipopt.sb": "yes"}
+
+
+@dataclass
+class Layout:
+    """Where each block of the decision vector lives (all column-major blocks)."""
+
+    n_points: int
+    nx: int
+    nu: int
+    nc: int
+    nh: int
+    n_in: int
+    free_time: bool
+    n_acc: int  # points with acceleration variables: all, or t0 only where the scheme gives them
+
+    def sizes(self) -> list[int]:
+        P = self.n_points
+        return [self.nx * P, self.nu * self.n_acc, self.nc * P, self.n_in * P, self.nh * (P - 1), int(self.free_time)]
+
+    def split(self, w):
+        out, start = [], 0
+        for n in self.sizes():
+            out.append(w[start : start + n])
+            start += n
+        P = self.n_points
+        X = ca.reshape(out[0], self.nx, P)
+        A = ca.reshape(out[1], self.nu, self.n_acc)
+        L = ca.reshape(out[2], self.nc, P)
+        W = ca.reshape(out[3], self.n_in, P)
+        Gm = ca.reshape(out[4], self.nh, P - 1)
+        return X, A, L, W, Gm, out[5]
+
+
+class Transcription:
+    """The NLP of one problem and one scheme, built once, solvable many times."""
+
+    def __init__(self, problem, scheme: Scheme):
+        started = time.perf_counter()
+        self.problem, self.scheme = problem, scheme
+        e = problem.eqs
+        self.eqs = e
+        nx = e.nq + e.nu
+        n_in = e.inputs.numel()
+        p = len(scheme.tau)
+        N = scheme.intervals
+        P = N * (p - 1) + 1
+        # Where the scheme gives u' from the speeds (Radau up to degree 4), accelerations
+        # after t0 are expressions, not variables: a smaller KKT system, the same NLP.
+        self.accelerations_from_speeds = scheme.accelerations_from_speeds
+        n_acc = 1 if self.accelerations_from_speeds is not None else P
+        self.layout = Layout(P, nx, e.nu, e.nc, e.phi.numel(), n_in, problem.t_final_bounds is not None, n_acc)
+        mesh = scheme.mesh_fractions
+        # Normalized time of every point, and its quadrature weight (times the horizon).
+        frac = np.zeros(P)
+        quad = np.zeros(P)
+        weights = scheme.weights
+        for k in range(N):
+            hk = mesh[k + 1] - mesh[k]
+            for j in range(p):
+                frac[k * (p - 1) + j] = mesh[k] + scheme.tau[j] * hk
+                quad[k * (p - 1) + j] += weights[j] * hk
+        self.fractions, self.quadrature = frac, quad
+
+        self.block = BlockNLP(sum(self.layout.sizes()), self._elements())
+        self.nlp = self.block.nlp
+        self._lbg, self._ubg = self.block.lbg, self.block.ubg
+        self._boundary_rows = []
+        for which, values in (("initial", problem.initial_values), ("final", problem.final_values)):
+            for r, name in enumerate(values):
+                self._boundary_rows.append((which, name, self.block.rows(which) + r))
+        self._solver = None
+        self._solver_options: dict | None = None
+        self.build_time = time.perf_counter() - started
+
+    # -- the NLP as elements repeated over the mesh (see nlp_assembly) --------------------------
+    def _indices(self) -> dict:
+        """Where each point's blocks sit in the decision vector (``-1``: a fixed zero)."""
+        lay = self.layout
+        start = np.concatenate([[0], np.cumsum(lay.sizes())])
+
+        def block(b: int, size: int):
+            return lambda i: start[b] + i * size + np.arange(size)
+
+        def gamma(i: int) -> np.ndarray:
+            # No kinematic slack at t0: the positions there are the initial ones.
+            return start[4] + (i - 1) * lay.nh + np.arange(lay.nh) if i > 0 else -np.ones(lay.nh, int)
+
+        return {"x": block(0, lay.nx), "a": block(1, lay.nu), "lam": block(2, lay.nc), "w": block(3, lay.n_in),
+                "gamma": gamma, "T": [start[5]] if lay.free_time else []}
+
+    def _elements(self) -> list:
+        """The NLP's pieces: dynamics at the points, defects on the intervals, t0 and end rows."""
+        e, lay = self.eqs, self.layout
+        T = ca.SX.sym("T")
+        # The horizon: a variable of every element (free final time) or a constant.
+        s = SimpleNamespace(point=self._point_functions(), index=self._indices(), T=T,
+                            x=ca.SX.sym("x", lay.nx), a=ca.SX.sym("a", e.nu), lam=ca.SX.sym("lam", e.nc),
+                            w=ca.SX.sym("w", lay.n_in), none=ca.SX.sym("none", 0),
+                            T_z=[T] if lay.free_time else [], T_c=[] if lay.free_time else [T],
+                            T_value=[] if lay.free_time else [self.problem.t_final])
+        return [*self._point_elements(s), self._interval_element(s), *self._end_elements(s)]
+
+    def _point_elements(self, s) -> list:
+        """Dynamics, velocity, position and path rows, and the integrand, at every point."""
+        pr, e, lay, scheme = self.problem, self.eqs, self.layout, self.scheme
+        x, a, lam, w, T, index = s.x, s.a, s.lam, s.w, s.T, s.index
+        frac, quad = ca.SX.sym("frac"), ca.SX.sym("quad")
+        t = frac * T
+        rows = list(s.point["residuals"](x, a, lam, w, t))
+        if pr.path_constraints:
+            rows.append(s.point["path"](x, lam, w, t))
+        rows = ca.vertcat(*rows)
+        n_eq = e.nu + e.nc + lay.nh
+        lo = [0.0] * n_eq + [pc.lower for pc in pr.path_constraints]
+        hi = [0.0] * n_eq + [pc.upper for pc in pr.path_constraints]
+        cost = quad * T * s.point["integrand"](x, lam, w, t) if pr.integral_terms else ca.SX(0)
+        C = self.accelerations_from_speeds
+        at_points = range(lay.n_points) if C is None else range(1)
+        out = [element(
+            "point", ca.vertcat(x, a, lam, w, *s.T_z), ca.vertcat(frac, quad, *s.T_c), rows, cost,
+            [np.concatenate([index["x"](i), index["a"](i), index["lam"](i), index["w"](i), index["T"]]) for i in at_points],
+            [[self.fractions[i], self.quadrature[i], *s.T_value] for i in at_points], lo, hi)]
+        if C is None:
+            return out
+        # After t0: a = u' from the interval's speeds, (sum_r C[r, j] u_r) / h.
+        p, mesh = len(scheme.tau), scheme.mesh_fractions
+        us = ca.SX.sym("u_interval", e.nu, p)
+        column, h = ca.SX.sym("C_j", p), ca.SX.sym("h")
+        rows, cost = ca.substitute([rows, cost], [a], [us @ column / (h * T)])
+        instances = [(k, j, k * (p - 1) + j) for k in range(scheme.intervals) for j in range(1, p)]
+        out.append(element(
+            "collocation_point", ca.vertcat(x, lam, w, ca.vec(us), *s.T_z), ca.vertcat(frac, quad, column, h, *s.T_c),
+            rows, cost,
+            [np.concatenate([index["x"](i), index["lam"](i), index["w"](i),
+                             *(index["x"](r)[e.nq :] for r in _interval_points(k, p)), index["T"]]) for k, j, i in instances],
+            [[self.fractions[i], self.quadrature[i], *C[:, j], mesh[k + 1] - mesh[k], *s.T_value] for k, j, i in instances],
+            lo, hi))
+        return out
+
+    def _interval_element(self, s):
+        """The scheme's defects on every interval."""
+        e, lay, scheme, index = self.eqs, self.layout, self.scheme, s.index
+        p, mesh, C = len(scheme.tau), scheme.mesh_fractions, self.accelerations_from_speeds
+        xs = [ca.SX.sym(f"x{j}", lay.nx) for j in range(p)]
+        accelerations = [ca.SX.sym(f"a{j}", e.nu) for j in range(p)]
+        gammas = [ca.SX.sym(f"gamma{j}", lay.nh) for j in range(p)]
+        fractions, h = ca.SX.sym("frac", p), ca.SX.sym("h")
+        D = [ca.vertcat(s.point["kinematics"](xs[j], gammas[j], fractions[j] * s.T), accelerations[j]) for j in range(p)]
+        defects = scheme.defects(xs, D, h * s.T)
+        if C is not None:
+            # The speed rows hold by construction of a; only the coordinate rows remain.
+            defects, accelerations = [d[: e.nq] for d in defects], []
+
+        def variables(k: int) -> np.ndarray:
+            points = _interval_points(k, p)
+            return np.concatenate([*(index["x"](i) for i in points), *(index["a"](i) for i in points if C is None),
+                                   *(index["gamma"](i) for i in points), index["T"]])
+
+        return element("interval", ca.vertcat(*xs, *accelerations, *gammas, *s.T_z), ca.vertcat(fractions, h, *s.T_c),
+                       ca.vertcat(*defects), 0, [variables(k) for k in range(scheme.intervals)],
+                       [[*self.fractions[list(_interval_points(k, p))], mesh[k + 1] - mesh[k], *s.T_value]
+                        for k in range(scheme.intervals)])
+
+    def _end_elements(self, s) -> list:
+        """Acceleration-level constraints at t0, Radau's input extrapolation, boundary values, final time."""
+        pr, e, lay, scheme, index = self.problem, self.eqs, self.layout, self.scheme, s.index
+        x, a, w, none = s.x, s.a, s.w, s.none
+        d0 = ca.vertcat(s.point["kinematics"](x, ca.SX.zeros(lay.nh), 0), a)
+        out = [element("acceleration", ca.vertcat(x, a, w), none, s.point["acceleration"](x, d0, w, 0), 0,
+                       [np.concatenate([index["x"](0), index["a"](0), index["w"](0)])], np.zeros((1, 0)))]
+        if not scheme.first_point_has_controls and lay.n_in and not ca.depends_on(ca.vertcat(ca.vec(e.G), e.e), e.inputs):
+            # Radau never uses inputs at t0 in its defects: take the first interval's input
+            # polynomial there, so that lambda_0 (from the acceleration constraint) is consistent.
+            ell = scheme.start_extrapolation
+            ws = [ca.SX.sym(f"w{j}", lay.n_in) for j in range(len(ell) + 1)]
+            out.append(element("extrapolation", ca.vertcat(*ws), none, ws[0] - sum(ell[j] * ws[j + 1] for j in range(len(ell))), 0,
+                               [np.concatenate([index["w"](j) for j in range(len(ell) + 1)])], np.zeros((1, 0))))
+        for which, values in (("initial", pr.initial_values), ("final", pr.final_values)):
+            i = 0 if which == "initial" else lay.n_points - 1
+            quantities = [s.point["named"][n](x, w) for n in values]
+            out.append(element(which, ca.vertcat(x, w), none, ca.vertcat(*quantities) if quantities else ca.SX(0, 1), 0,
+                               [np.concatenate([index["x"](i), index["w"](i)])], np.zeros((1, 0))))
+        if lay.free_time and pr.time_weight:
+            out.append(element("final_time", s.T, none, ca.SX(0, 1), pr.time_weight * s.T, [index["T"]], np.zeros((1, 0))))
+        return out
+
+    # -- per-point pieces, as SX functions -----------------------------------------------------
+    def _point_functions(self) -> dict:
+        pr, e = self.problem, self.eqs
+        x = ca.vertcat(e.q, e.u)
+        d = ca.SX.sym("d", x.numel())
+        a = ca.SX.sym("a", e.nu)
+        gam = ca.SX.sym("gamma", e.phi.numel())
+        lam = pr.lam
+        phi_q = ca.jacobian(e.phi, e.q)
+        kin = e.qdot + (phi_q.T @ gam if e.phi.numel() else 0)
+        dyn = e.mass_matrix @ a - e.forces - e.G.T @ lam
+        vel = e.G @ e.u + e.e
+        out = {"kinematics": ca.Function("kinematics", [x, gam, e.t], [kin]),
+               "residuals": ca.Function("residuals", [x, a, lam, e.inputs, e.t], [dyn, vel, e.phi])}
+        pi = e.G @ e.u + e.e
+        # d(pi)/dt at t0 with q' = D_q, u' = D_u; rows where an input enters are left out
+        # (the input's rate there is the optimizer's free choice).
+        acc = e.G @ d[e.nq :] + ca.jtimes(pi, e.q, d[: e.nq]) + ca.jacobian(pi, e.t)
+        keep = [k for k in range(e.nc) if not ca.depends_on(pi[k], e.inputs)]
+        out["acceleration"] = ca.Function("acceleration", [x, d, e.inputs, e.t], [acc[keep] if keep else ca.SX(0, 1)])
+        if pr.integral_terms:
+            integrand = sum(term.weight * term.expression for term in pr.integral_terms)
+            out["integrand"] = ca.Function("integrand", [x, lam, e.inputs, e.t], [integrand])
+        if pr.path_constraints:
+            out["path"] = ca.Function("path", [x, lam, e.inputs, e.t], [ca.vertcat(*[c.expression for c in pr.path_constraints])])
+        for term in pr.integral_terms + pr.path_constraints:
+            extra = [s.name() for s in ca.symvar(term.expression) if not ca.depends_on(ca.vertcat(x, lam, e.inputs, e.t), s)]
+            if extra:
+                raise ModelError(f"'{term.label}' uses {extra}, which are not quantities of model '{pr.model.name}'")
+        out["named"] = {n: ca.Function("boundary", [x, e.inputs], [pr.quantity(n)]) for n in {**pr.initial_values, **pr.final_values}}
+        return out
+
+    # -- bounds and guess ---------------------------------------------------------------------
+    def _bounds(self, x0: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        lay, pr = self.layout, self.problem
+        lo = [np.full(n, -np.inf) for n in lay.sizes()]
+        hi = [np.full(n, np.inf) for n in lay.sizes()]
+        names_x = pr.model.coordinate_names + pr.model.speed_names
+        names_w = list(pr.model.inputs)
+        for name, (a, b) in pr.bounds.items():
+            if name in names_x:
+                r = names_x.index(name)
+                lo[0][r :: lay.nx], hi[0][r :: lay.nx] = a, b
+            elif name in names_w:
+                r = names_w.index(name)
+                lo[3][r :: lay.n_in], hi[3][r :: lay.n_in] = a, b
+            else:
+                raise ModelError(f"bound on '{name}': only coordinates, speeds and inputs take bounds; use subject_to for rates")
+        if lay.free_time:
+            lo[5][:], hi[5][:] = pr.t_final_bounds
+        self._keep_away_from_euler_singularities(lo[0], hi[0], names_x, x0[: lay.nx])
+        return np.concatenate(lo), np.concatenate(hi)
+
+    def _keep_away_from_euler_singularities(self, lo, hi, names_x, x_start) -> None:
+        """Bound each Euler body's second angle inside the regular band of its start value.
+
+        Where the user set no bound: the dual Euler basis (and so the dynamics) is
+        singular at theta = k pi (proper sequences) or pi/2 + k pi (Tait-Bryan), and an
+        iterate that crosses there makes IPOPT wander.
+        """
+        lay = self.layout
+        for b in self.eqs.bodies:
+            rot = b.rotation
+            name = f"{b.name}.theta"
+            if not isinstance(rot, EulerSequence) or name in self.problem.bounds:
+                continue
+            r = names_x.index(name)
+            offset = 0.0 if rot.is_proper else np.pi / 2
+            k = np.floor((x_start[r] + offset) / np.pi)
+            margin = max(rot.singularity_tolerance, 1e-3)
+            lo[r :: lay.nx] = k * np.pi - offset + margin
+            hi[r :: lay.nx] = (k + 1) * np.pi - offset - margin
+
+    def _boundary_values(self) -> tuple[np.ndarray, np.ndarray]:
+        lbg, ubg = self._lbg.copy(), self._ubg.copy()
+        for which, name, row in self._boundary_rows:
+            v = (self.problem.initial_values if which == "initial" else self.problem.final_values)[name]
+            lbg[row] = ubg[row] = v
+        return lbg, ubg
+
+    def initial_guess(self) -> np.ndarray:
+        """Named guesses, else linear between boundary values; positions projected onto ``phi = 0``."""
+        pr, lay = self.problem, self.layout
+        t = self.fractions * pr.t_final
+        names = pr.model.coordinate_names + pr.model.speed_names
+        X = np.zeros((lay.nx, lay.n_points))
+        for r, n in enumerate(names):
+            if n in pr.guess:
+                X[r] = np.broadcast_to(pr.guess[n](t), t.shape)
+            else:
+                a = pr.initial_values.get(n, pr.final_values.get(n, 0.0))
+                b = pr.final_values.get(n, a)
+                X[r] = a + (b - a) * self.fractions
+        W = np.zeros((lay.n_in, lay.n_points))
+        for r, n in enumerate(pr.model.inputs):
+            if n in pr.guess:
+                W[r] = np.broadcast_to(pr.guess[n](t), t.shape)
+            else:
+                a = pr.initial_values.get(n, 0.0)
+                W[r] = a + (pr.final_values.get(n, a) - a) * self.fractions
+        return self._pack(X, np.zeros((lay.nc, lay.n_points)), W, pr.t_final)
+
+    def guess_from(self, solution: OCPSolution) -> np.ndarray:
+        """A start for this transcription from a solution of the same problem on another mesh
+        or scheme (mesh refinement): states, multipliers and inputs through the solution's
+        collocation polynomials, positions projected onto ``phi = 0``."""
+        if not isinstance(solution, OCPSolution):
+            raise ModelError(f"warm_start must be a solution from problem.solve (an OCPSolution, or an "
+                             f"OCPSolveError's .solution), got {type(solution).__name__}")
+        if solution.transcription is self:
+            return np.asarray(solution.decision_vector, float)
+        pr, other = self.problem, solution.transcription.problem
+        for what, ours, theirs in (("coordinates", pr.model.coordinate_names, other.model.coordinate_names),
+                                   ("inputs", list(pr.model.inputs), list(other.model.inputs)),
+                                   ("constraints", self.eqs.constraint_names, solution.transcription.eqs.constraint_names)):
+            if list(ours) != list(theirs):
+                raise ModelError(f"warm_start: the solution's model '{other.model.name}' has {what} {list(theirs)}, "
+                                 f"this problem's model '{pr.model.name}' has {list(ours)}; pass a solution of the same model")
+        t = self.fractions * solution.t_final
+        names = pr.model.coordinate_names + pr.model.speed_names
+        X = np.array([solution.interpolate(n, t) for n in names])
+        L = np.array([solution.interpolate(f"{c}.lambda", t) for c in self.eqs.constraint_names]).reshape(self.layout.nc, -1)
+        W = np.array([solution.interpolate(n, t) for n in pr.model.inputs]).reshape(self.layout.n_in, -1)
+        return self._pack(X, L, W, solution.t_final)
+
+    def _pack(self, X, L, W, t_final: float) -> np.ndarray:
+        """The decision vector of these blocks; positions projected onto ``phi = 0``,
+        accelerations from the speeds by finite differences, slacks zero."""
+        e, lay = self.eqs, self.layout
+        t = self.fractions * t_final
+        for i in range(lay.n_points):
+            X[: e.nq, i] = project_positions(e, X[: e.nq, i], t[i], inputs=W[:, i])
+        A = np.gradient(X[e.nq :], t, axis=1) if lay.n_points > 1 else np.zeros((e.nu, 1))
+        parts = [X.ravel(order="F"), A[:, : lay.n_acc].ravel(order="F"), L.ravel(order="F"), W.ravel(order="F"),
+                 np.zeros(lay.nh * (lay.n_points - 1)), np.array([t_final] if lay.free_time else [])]
+        return np.concatenate(parts)
+
+    def accelerations(self, X: np.ndarray, A: np.ndarray, t_final: float) -> np.ndarray:
+        """``u'`` at every point (``nu x P``) from the state and acceleration blocks of a
+        decision vector: the variables, or from the speeds where the scheme gives them."""
+        C = self.accelerations_from_speeds
+        if C is None:
+            return A
+        P, p, nq = self.layout.n_points, len(self.scheme.tau), self.eqs.nq
+        out = np.zeros((self.eqs.nu, P))
+        out[:, 0] = A[:, 0]
+        mesh = self.scheme.mesh_fractions
+        for k in range(self.scheme.intervals):
+            points = list(_interval_points(k, p))
+            out[:, points[1:]] = X[nq:, points] @ C[:, 1:] / ((mesh[k + 1] - mesh[k]) * t_final)
+        return out
+
+    # -- solve ----------------------------------------------------------------------------------
+    def solve(self, ipopt_options: dict, warm_start=None) -> OCPSolution:
+        opts = {**DEFAULT_IPOPT, **ipopt_options}
+        started = time.perf_counter()
+        if self._solver is None or opts != self._solver_options:
+            self._solver = ca.nlpsol("ocp", "ipopt", self.nlp, {**opts, **self.block.derivative_options})
+            self._solver_options = opts
+        setup = time.perf_counter() - started
+        x0 = self.initial_guess() if warm_start is None else self.guess_from(warm_start)
+        lbx, ubx = self._bounds(x0)
+        lbg, ubg = self._boundary_values()
+        started = time.perf_counter()
+        res = self._solver(x0=x0, lbx=lbx, ubx=ubx, lbg=lbg, ubg=ubg)
+        solve_time = time.perf_counter() - started
+        stats = self._solver.stats()
+        solution = OCPSolution.from_vector(self, np.asarray(res["x"]).ravel(), stats, float(res["f"]),
+                                           {"transcription": self.build_time, "solver_setup": setup, "solve": solve_time})
+        if not stats.get("success", False):
+            raise OCPSolveError(
+                f"IPOPT did not solve '{self.problem.model.name}' with {self.scheme.label} "
+                f"(N = {self.scheme.intervals}): status '{stats.get('return_status')}' after "
+                f"{stats.get('iter_count')} iterations; the last iterate is kept in .solution",
+                solution,
+            )
+        return solution
+
+
+def _interval_points(k: int, p: int) -> range:
+    """The points of interval ``k`` (``p`` per interval, the last shared with the next)."""
+    return range(k * (p - 1), k * (p - 1) + p)
+
+
+def transcribe(problem, scheme: Scheme) -> Transcription:
+    return Transcription(problem, scheme)

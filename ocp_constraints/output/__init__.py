@@ -1,0 +1,1 @@
+"""Results on disk: files written whole (summary.json, CSV) and plots. Used by every task that writes."""

@@ -1,0 +1,124 @@
+"""Writing results: ``summary.json``, ``trajectory.csv``, ``loads.csv`` and PNG plots.
+
+The format is DESIGN.md's results contract (external checkers read these files).
+Every file is written whole: to a temporary file in the same folder, then renamed, so
+a crash never leaves a half-written file that looks complete.
+"""
+from __future__ import annotations
+
+import io
+import json
+import os
+import platform
+import tempfile
+from pathlib import Path
+
+import numpy as np
+
+from ..errors import OcpConstraintsError
+
+
+def software_versions() -> dict[str, str]:
+    import casadi
+    import scipy
+
+    from .._version import __version__
+
+    return {"ocp_constraints": __version__, "python": platform.python_version(), "casadi": casadi.__version__,
+            "numpy": np.__version__, "scipy": scipy.__version__}
+
+
+def prepare_output_folder(out: str | Path) -> Path:
+    """Create ``out`` (and parents); a clear error if it cannot be written."""
+    path = Path(out)
+    try:
+        path.mkdir(parents=True, exist_ok=True)
+        probe = tempfile.NamedTemporaryFile(dir=path, prefix=".write-test-", delete=True)
+        probe.close()
+    except OSError as exc:
+        raise OcpConstraintsError(f"cannot write results to '{path}': {exc.strerror or exc}") from exc
+    return path
+
+
+def write_atomic(path: Path, data: bytes) -> None:
+    """Write ``data`` to ``path`` through a temporary file and a rename."""
+    fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.", suffix=".tmp")
+    try:
+        with os.fdopen(fd, "wb") as fh:
+            fh.write(data)
+        os.replace(tmp, path)
+    except BaseException:
+        if os.path.exists(tmp):
+            os.unlink(tmp)
+        raise
+
+
+def write_json(path: Path, data: dict) -> None:
+    write_atomic(path, (json.dumps(data, indent=2, sort_keys=False, default=_json_default) + "\n").encode())
+
+
+def _json_default(value):
+    if isinstance(value, (np.floating, np.integer)):
+        return value.item()
+    if isinstance(value, np.ndarray):
+        return value.tolist()
+    raise TypeError(f"cannot write {type(value).__name__} to JSON")
+
+
+def write_csv(path: Path, t: np.ndarray, columns: dict[str, np.ndarray]) -> None:
+    """A ``t`` column then one column per entry, full double precision."""
+    names = ["t", *columns]
+    data = np.column_stack([np.asarray(t, float)] + [np.asarray(v, float) for v in columns.values()])
+    buf = io.StringIO()
+    np.savetxt(buf, data, delimiter=",", header=",".join(names), comments="", fmt="%.17g")
+    write_atomic(path, buf.getvalue().encode())
+
+
+def write_plots(out: Path, t: np.ndarray, states: dict[str, np.ndarray], loads: dict[str, np.ndarray],
+                joints: list[str], energy: dict[str, np.ndarray] | None = None) -> list[str]:
+    """PNG plots: coordinates, one figure per joint load channel, and energy. Returns file names."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    written = []
+
+    def save(fig, name: str) -> None:
+        buf = io.BytesIO()
+        fig.savefig(buf, format="png", dpi=110)
+        plt.close(fig)
+        write_atomic(out / name, buf.getvalue())
+        written.append(name)
+
+    coords = {k: v for k, v in states.items() if not k.endswith("_dot") and "." in k
+              and k.split(".")[-1] not in ("vbar_x", "vbar_y", "vbar_z", "omega_x", "omega_y", "omega_z")}
+    fig, ax = plt.subplots(figsize=(8, 4.5))
+    for k, v in coords.items():
+        ax.plot(t, v, label=k)
+    ax.set(xlabel="t [s]", ylabel="coordinate [m or rad]", title="coordinates")
+    ax.legend(fontsize=7, ncol=2)
+    ax.grid(alpha=0.3)
+    save(fig, "coordinates.png")
+
+    for prefix in joints:
+        fig, (a1, a2) = plt.subplots(2, 1, figsize=(8, 6), sharex=True)
+        for axis in "xyz":
+            a1.plot(t, loads[f"{prefix}.F_{axis}"], label=f"F_{axis}")
+            a2.plot(t, loads[f"{prefix}.M_{axis}"], label=f"M_{axis}")
+        a1.set(ylabel="constraint force [N]", title=f"{prefix}: F_c at its point, M_c (fixed basis)")
+        a2.set(xlabel="t [s]", ylabel="constraint moment [N m]")
+        for a in (a1, a2):
+            a.legend(fontsize=8)
+            a.grid(alpha=0.3)
+        save(fig, f"loads_{prefix.replace('@', '_at_')}.png")
+
+    if energy:
+        fig, ax = plt.subplots(figsize=(8, 4))
+        for k, v in energy.items():
+            ax.plot(t, v, label=k)
+        ax.set(xlabel="t [s]", ylabel="J", title="energy and constraint work")
+        ax.legend(fontsize=8)
+        ax.grid(alpha=0.3)
+        save(fig, "energy.png")
+    return written

@@ -1,0 +1,171 @@
+"""Tasks on a scene that produce results on disk: ``run_simulation``.
+
+This is the one place that strings model -> equations -> simulation -> results files
+together, for the command line and for scripts alike.
+"""
+from __future__ import annotations
+
+import time
+from dataclasses import asdict
+from pathlib import Path
+
+import numpy as np
+
+from ..mechanics.equations import SystemEquations
+from ..errors import SimulationError
+from ..ocp.problem import OptimalControlProblem
+from ..ocp.solution import OCPSolution
+from ..errors import OCPSolveError
+from ..output.files import prepare_output_folder, software_versions, write_csv, write_json, write_plots
+from .registry import Scene
+from ..dynamics.simulate import SimulationOptions, simulate
+from ..dynamics.trajectory import Trajectory
+from ..mechanics.state import consistent_state
+
+DRIFT_METHOD = (
+    "acceleration-level constraints in a KKT system (sparse QR, no mass-matrix inversion), "
+    "CVODES between output samples, projection onto the position- and velocity-level "
+    "constraints every projection_interval"
+)
+
+
+def energy_balance(traj: Trajectory) -> dict[str, float | list]:
+    """Energy E = T + U against the work of the constraint loads (eq. 27) and applied loads.
+
+    ``relative_error`` is ``max |E(t) - E(0) - W(t)| / max(|E|, T)`` over the run.
+    """
+    T, U = traj.energy()
+    E = T + U
+    W = traj.work.sum(axis=1) + traj.applied_work
+    scale = max(float(np.abs(E).max()), float(T.max()), 1e-300)
+    return {
+        "initial": float(E[0]), "final": float(E[-1]),
+        "constraint_work": float(traj.work[-1].sum()),
+        "applied_work": float(traj.applied_work[-1]),
+        "relative_error": float(np.abs(E - E[0] - W).max() / scale),
+        "series": {"kinetic": T, "potential": U, "total": E, "work": W},
+    }
+
+
+def simulate_scene(scene: Scene, t_final: float | None = None, options: SimulationOptions | None = None) -> Trajectory:
+    """Consistent initial state and forward simulation of ``scene`` (nothing written)."""
+    eqs = SystemEquations(scene.model)
+    w0 = scene.inputs(0.0) if scene.inputs else None
+    q0, u0 = consistent_state(eqs, scene.coordinates, scene.rates, inputs=w0)
+    return simulate(eqs, q0, u0, float(scene.t_final if t_final is None else t_final), options, inputs=scene.inputs)
+
+
+def run_simulation(scene: Scene, scene_name: str, t_final: float | None = None, out: str | Path | None = None,
+                   options: SimulationOptions | None = None, plots: bool = True) -> tuple[Trajectory, dict]:
+    """Simulate ``scene`` and, if ``out`` is given, write the results files there.
+
+    Returns the trajectory and the summary. If the simulation stops early, the part
+    that was computed is written with ``"success": false`` and the error is re-raised.
+    """
+    opts = options or SimulationOptions()
+    out_path = prepare_output_folder(out) if out is not None else None
+    t_end = float(scene.t_final if t_final is None else t_final)
+    started = time.perf_counter()
+    eqs = SystemEquations(scene.model)
+    q0, u0 = consistent_state(eqs, scene.coordinates, scene.rates, inputs=scene.inputs(0.0) if scene.inputs else None)
+    built = time.perf_counter()
+    error: SimulationError | None = None
+    try:
+        traj = simulate(eqs, q0, u0, t_end, opts, inputs=scene.inputs)
+    except SimulationError as exc:
+        if exc.partial is None or len(exc.partial) == 0:
+            raise
+        error, traj = exc, exc.partial
+    solved = time.perf_counter()
+    pos, vel = traj.residuals()
+    energy = energy_balance(traj)
+    drift_q, drift_u = traj.max_drift
+    summary = {
+        "scene": scene_name,
+        "task": "simulate",
+        "success": error is None,
+        "status": "completed" if error is None else "stopped early",
+        "message": "" if error is None else str(error),
+        "parameters": scene.model.parameters,
+        "solver": {"integrator": "cvodes", **asdict(opts), "t_final": t_end, "drift_handling": DRIFT_METHOD},
+        "iterations": None,
+        "samples": len(traj),
+        "t_reached": float(traj.t[-1]),
+        "wall_time": {"build": built - started, "solve": solved - built},
+        "objective": None,
+        "max_constraint_residual": {"position": pos, "velocity": vel},
+        "max_residual_before_projection": {"position": drift_q, "velocity": drift_u},
+        "energy": {k: v for k, v in energy.items() if k != "series"},
+        "constraints": eqs.constraint_names,
+        "joints": [ch.prefix for ch in eqs.load_channels],
+        "software": software_versions(),
+    }
+    summary["wall_time"]["total"] = time.perf_counter() - started
+    if out_path is not None:
+        series = energy["series"]
+        inputs = {n: traj.sample(n) for n in scene.model.inputs}
+        write_trajectory_results(out_path, traj, summary, inputs, plots,
+                                 {"E = T + U": series["total"], "work of constraints and applied loads": series["work"]})
+    if error is not None:
+        raise error
+    return traj, summary
+
+
+def write_trajectory_results(out_path: Path, traj: Trajectory, summary: dict, inputs: dict[str, np.ndarray],
+                             plots: bool, energy: dict[str, np.ndarray] | None = None) -> None:
+    """trajectory.csv (states, then inputs), loads.csv, plots, and summary.json last (DESIGN.md)."""
+    states = {**traj.state_columns(), **inputs}
+    loads = traj.loads()
+    write_csv(out_path / "trajectory.csv", traj.t, states)
+    write_csv(out_path / "loads.csv", traj.t, loads)
+    if plots:
+        summary["plots"] = write_plots(out_path, traj.t, states, loads, summary["joints"], energy)
+    write_json(out_path / "summary.json", summary)
+
+
+def run_optimal_control(problem: OptimalControlProblem, scene_name: str, task: str, method,
+                        out: str | Path | None = None, ipopt_options: dict | None = None,
+                        plots: bool = True, reintegrate: bool = False) -> tuple[OCPSolution, dict]:
+    """Solve ``problem`` with the transcription ``method``; write results if ``out`` is given.
+
+    ``summary`` carries the work of every joint load (e.g. a motor's energy) and, with
+    ``reintegrate``, the deviation of a forward simulation of the optimal inputs.
+    A failed solve writes the last iterate with ``"success": false`` and re-raises.
+    """
+    out_path = prepare_output_folder(out) if out is not None else None
+    error: OCPSolveError | None = None
+    try:
+        sol = problem.solve(method, ipopt_options)
+    except OCPSolveError as exc:
+        error, sol = exc, exc.solution
+    pos, vel = sol.residuals()
+    eqs = problem.eqs
+    summary = {
+        "scene": scene_name,
+        "task": task,
+        "success": sol.success,
+        "status": sol.status,
+        "message": "" if error is None else str(error),
+        "parameters": problem.model.parameters,
+        "solver": {"nlp_solver": "ipopt", "transcription": method.label, "intervals": method.intervals,
+                   "degree": getattr(method, "degree", None), "ipopt_options": ipopt_options or {}},
+        "iterations": sol.iterations,
+        "t_final": sol.t_final,
+        "wall_time": {"build": sol.wall_time["transcription"] + sol.wall_time["solver_setup"], **sol.wall_time},
+        "objective": sol.objective,
+        "max_constraint_residual": {"position": pos, "velocity": vel},
+        "joint_work": sol.joint_work(),
+        "constraints": eqs.constraint_names,
+        "joints": [ch.prefix for ch in eqs.load_channels],
+        "inputs": list(problem.model.inputs),
+        "software": software_versions(),
+    }
+    if reintegrate and error is None:
+        check = sol.reintegrate()
+        summary["reintegration"] = {k: v for k, v in check.items() if k != "trajectory"}
+    if out_path is not None:
+        inputs = {n: sol.sample(n) for n in problem.model.inputs}
+        write_trajectory_results(out_path, sol.trajectory, summary, inputs, plots)
+    if error is not None:
+        raise error
+    return sol, summary
