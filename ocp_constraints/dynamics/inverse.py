@@ -65,6 +65,12 @@ class InverseDynamics:
         b = e.mass_matrix @ udot - f0
         return ca.Function("inverse_system", [e.q, e.u, udot, e.t], [A, b], ["q", "u", "udot", "t"], ["A", "b"])
 
+    @property
+    def linear_system(self) -> ca.Function:
+        """``(q, u, u', t) -> (A, b)``: the balances as ``A [lambda; tau] = b``, ``A = [G^T, B]``,
+        ``b = M u' - f`` with ``f`` the applied and gyroscopic loads at zero inputs."""
+        return self._system
+
     @cached_property
     def _speeds(self) -> ca.Function:
         """``(q, q', q'') -> (u, u')`` through ``u = B(q) q'``."""

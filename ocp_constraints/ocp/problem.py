@@ -78,6 +78,8 @@ class OptimalControlProblem:
             self._named[n] = e.u[i]
         for i, n in enumerate(self.model.inputs):
             self._named[n] = e.inputs[i]
+        self._model_contents = _model_contents(self.model)
+        self.free_initial_values: set[str] = set()
 
     # -- names ------------------------------------------------------------------------
     def quantity(self, name: str) -> ca.SX:
@@ -164,19 +166,62 @@ class OptimalControlProblem:
         self.quantity(name)
         self.guess[name] = values
 
-    def solve(self, method, ipopt_options: dict | None = None, warm_start=None):
+    def leave_free(self, names: list[str]) -> None:
+        """Declare initial values the optimizer is meant to choose (coordinates or speeds that no
+        constraint and no :meth:`initial` value fixes): the pre-solve check then accepts them."""
+        for n in names:
+            self.quantity(n)
+        self.free_initial_values.update(names)
+
+    # -- solving -------------------------------------------------------------------------------
+    def structure_key(self) -> tuple:
+        """Everything a transcription builds into its NLP: objective terms and weights, path
+        constraints and their bounds, which values are fixed at the ends, the horizon. Two solves
+        with the same key may share a transcription; bounds, boundary *values* and guesses are
+        read afresh at every solve."""
+        if _model_contents(self.model) != self._model_contents:
+            raise ModelError(f"model '{self.model.name}' changed after this OptimalControlProblem was created "
+                             f"(bodies, constraints, loads or inputs added); create the problem after the model "
+                             f"is complete")
+        return (tuple((id(term.expression), term.weight) for term in self.integral_terms),
+                tuple((id(c.expression), c.lower, c.upper) for c in self.path_constraints),
+                self.time_weight, tuple(self.initial_values), tuple(self.final_values),
+                self.t_final_bounds is not None, None if self.t_final_bounds is not None else self.t_final)
+
+    def solve(self, method, ipopt_options: dict | None = None, warm_start=None, *, check: bool = True,
+              progress: bool | None = None):
         """Transcribe with ``method`` (a :mod:`~ocp_constraints.ocp.schemes` scheme) and solve with IPOPT.
 
-        The transcription is built once per method and reused by later solves.
+        Before IPOPT starts, :func:`~ocp_constraints.ocp.diagnostics.check_problem` looks for what
+        would make it fail or wander (undetermined initial values, boundary values off the
+        constraints, reversed bounds, bad guesses, an NLP larger than the memory) and raises a
+        :class:`~ocp_constraints.errors.ModelError` naming it; ``check=False`` skips that.
+        The transcription is built once per method and problem structure (:meth:`structure_key`)
+        and reused by later solves; any edit of the objective or the path constraints builds it anew.
         ``warm_start``: a solution of this problem to start from, on the same or another
         mesh or scheme (e.g. a coarse solve before a fine one).
-        Returns an :class:`~ocp_constraints.ocp.solution.OCPSolution`; a failed solve
-        raises :class:`~ocp_constraints.ocp.solution.OCPSolveError` carrying the last iterate.
+        ``progress``: print IPOPT's progress (iteration, objective, infeasibility, elapsed) to the
+        terminal; default: when the solve takes longer than a few seconds and stderr is a terminal.
+        Ctrl-C stops IPOPT cleanly at the next iteration and keeps the last iterate.
+        Returns an :class:`~ocp_constraints.ocp.solution.OCPSolution`; a failed or interrupted solve
+        raises :class:`~ocp_constraints.errors.OCPSolveError` carrying the last iterate.
         """
+        from .diagnostics import check_problem
         from .transcription import transcribe
 
-        key = (method.label, method.intervals, None if method.mesh is None else tuple(method.mesh))
+        key = (method.label, method.intervals, None if method.mesh is None else tuple(method.mesh),
+               self.structure_key())
+        if check:
+            check_problem(self, method)
         cache = self.__dict__.setdefault("_transcriptions", {})
         if key not in cache:
+            for old in [k for k in cache if k[:3] == key[:3]]:
+                del cache[old]     # the problem changed: its old NLP for this method is of no use
             cache[key] = transcribe(self, method)
-        return cache[key].solve(ipopt_options or {}, warm_start)
+        return cache[key].solve(ipopt_options or {}, warm_start, progress=progress)
+
+
+def _model_contents(model: Model) -> tuple:
+    """What the equations were built from: names of bodies, constraints, loads and inputs."""
+    return (tuple(model.bodies), tuple(c.name for c in model.constraints), tuple(f.name for f in model.forces),
+            tuple(t.name for t in model.torques), tuple(model.inputs))

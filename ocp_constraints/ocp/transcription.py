@@ -34,6 +34,8 @@ import numpy as np
 
 from ..errors import ModelError
 from .nlp_assembly import BlockNLP, element
+from .guess import consistent_guess
+from .progress import IterationMonitor, stop_on_signals
 from .solution import OCPSolution
 from ..errors import OCPSolveError
 from ..mechanics.rotations import EulerSequence
@@ -309,26 +311,25 @@ class Transcription:
         return lbg, ubg
 
     def initial_guess(self) -> np.ndarray:
-        """Named guesses, else linear between boundary values; positions projected onto ``phi = 0``."""
+        """A consistent start from the user's guesses (see :mod:`.guess`): coordinates guessed or
+        linear between boundary values, on the constraints; speeds, accelerations, multipliers
+        and inputs that fit them."""
         pr, lay = self.problem, self.layout
         t = self.fractions * pr.t_final
-        names = pr.model.coordinate_names + pr.model.speed_names
-        X = np.zeros((lay.nx, lay.n_points))
-        for r, n in enumerate(names):
+        X = np.full((lay.nx, lay.n_points), np.nan)
+        for r, n in enumerate(pr.model.coordinate_names + pr.model.speed_names):
             if n in pr.guess:
                 X[r] = np.broadcast_to(pr.guess[n](t), t.shape)
-            else:
+            elif r < self.eqs.nq:
                 a = pr.initial_values.get(n, pr.final_values.get(n, 0.0))
                 b = pr.final_values.get(n, a)
                 X[r] = a + (b - a) * self.fractions
-        W = np.zeros((lay.n_in, lay.n_points))
+        W = np.full((lay.n_in, lay.n_points), np.nan)
         for r, n in enumerate(pr.model.inputs):
             if n in pr.guess:
                 W[r] = np.broadcast_to(pr.guess[n](t), t.shape)
-            else:
-                a = pr.initial_values.get(n, 0.0)
-                W[r] = a + (pr.final_values.get(n, a) - a) * self.fractions
-        return self._pack(X, np.zeros((lay.nc, lay.n_points)), W, pr.t_final)
+        X, A, L, W = consistent_guess(self, X, W, pr.t_final)
+        return self._pack(X, L, W, pr.t_final, A=A)
 
     def guess_from(self, solution: OCPSolution) -> np.ndarray:
         """A start for this transcription from a solution of the same problem on another mesh
@@ -353,14 +354,15 @@ class Transcription:
         W = np.array([solution.interpolate(n, t) for n in pr.model.inputs]).reshape(self.layout.n_in, -1)
         return self._pack(X, L, W, solution.t_final)
 
-    def _pack(self, X, L, W, t_final: float) -> np.ndarray:
-        """The decision vector of these blocks; positions projected onto ``phi = 0``,
-        accelerations from the speeds by finite differences, slacks zero."""
+    def _pack(self, X, L, W, t_final: float, A: np.ndarray | None = None) -> np.ndarray:
+        """The decision vector of these blocks, slacks zero. Without ``A``: positions projected
+        onto ``phi = 0`` and accelerations from the speeds by finite differences."""
         e, lay = self.eqs, self.layout
         t = self.fractions * t_final
-        for i in range(lay.n_points):
-            X[: e.nq, i] = project_positions(e, X[: e.nq, i], t[i], inputs=W[:, i])
-        A = np.gradient(X[e.nq :], t, axis=1) if lay.n_points > 1 else np.zeros((e.nu, 1))
+        if A is None:
+            for i in range(lay.n_points):
+                X[: e.nq, i] = project_positions(e, X[: e.nq, i], t[i], inputs=W[:, i])
+            A = np.gradient(X[e.nq :], t, axis=1) if lay.n_points > 1 else np.zeros((e.nu, 1))
         parts = [X.ravel(order="F"), A[:, : lay.n_acc].ravel(order="F"), L.ravel(order="F"), W.ravel(order="F"),
                  np.zeros(lay.nh * (lay.n_points - 1)), np.array([t_final] if lay.free_time else [])]
         return np.concatenate(parts)
@@ -381,20 +383,26 @@ class Transcription:
         return out
 
     # -- solve ----------------------------------------------------------------------------------
-    def solve(self, ipopt_options: dict, warm_start=None) -> OCPSolution:
+    def solve(self, ipopt_options: dict, warm_start=None, progress: bool | None = None) -> OCPSolution:
         opts = {**DEFAULT_IPOPT, **ipopt_options}
         started = time.perf_counter()
         if self._solver is None or opts != self._solver_options:
-            self._solver = ca.nlpsol("ocp", "ipopt", self.nlp, {**opts, **self.block.derivative_options})
+            self._monitor = IterationMonitor(self.nlp["x"].numel(), self.nlp["g"].numel())
+            self._solver = ca.nlpsol("ocp", "ipopt", self.nlp,
+                                     {**opts, **self.block.derivative_options, "iteration_callback": self._monitor})
             self._solver_options = opts
         setup = time.perf_counter() - started
         x0 = self.initial_guess() if warm_start is None else self.guess_from(warm_start)
         lbx, ubx = self._bounds(x0)
         lbg, ubg = self._boundary_values()
+        self._monitor.reset(progress, lbg, ubg)
         started = time.perf_counter()
-        res = self._solver(x0=x0, lbx=lbx, ubx=ubx, lbg=lbg, ubg=ubg)
+        with stop_on_signals(self._monitor):
+            res = self._solver(x0=x0, lbx=lbx, ubx=ubx, lbg=lbg, ubg=ubg)
         solve_time = time.perf_counter() - started
-        stats = self._solver.stats()
+        stats = dict(self._solver.stats())
+        if self._monitor.stop_reason:
+            stats.update(success=False, return_status=f"interrupted by {self._monitor.stop_reason}")
         solution = OCPSolution.from_vector(self, np.asarray(res["x"]).ravel(), stats, float(res["f"]),
                                            {"transcription": self.build_time, "solver_setup": setup, "solve": solve_time})
         if not stats.get("success", False):

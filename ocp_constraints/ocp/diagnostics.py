@@ -1,0 +1,261 @@
+"""Checks of an optimal-control problem before IPOPT starts: milliseconds instead of iterations.
+
+What makes IPOPT wander or fail without a word is found here and named:
+
+- initial coordinates or speeds that neither a constraint (its position form ``phi = 0``, or
+  ``G u + e = 0``) nor an initial value fixes: IPOPT would have to choose them, and where
+  nothing in the problem depends on them (a cart's heading when only its angular velocity is
+  constrained) its KKT system is singular;
+- boundary values that no state on the constraints can take (the constraint and its residual);
+- boundary values outside the bounds, a free final time whose bounds are reversed or exclude
+  the guess, guesses that are not finite or have the wrong shape;
+- an NLP larger than the machine's memory (the estimate is in the message).
+
+The degrees of freedom of the model at ``t0`` are counted too (``nq - rank(phi_q)`` positions,
+``nu - rank(G)`` speeds) and returned for reports.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+import scipy.linalg
+
+from ..errors import ModelError
+from ..mechanics.rotations import UnitQuaternion
+from ..mechanics.state import rate_rows
+
+POSITION_TOL = 1e-8    # m or rad: a boundary value that leaves |phi| above this violates the constraint
+VELOCITY_TOL = 1e-8    # m/s or rad/s
+BYTES_PER_VARIABLE = 40_000   # peak memory per NLP variable, measured: scripts/ocp_memory_per_variable.py
+
+
+@dataclass
+class Diagnostics:
+    """Degrees of freedom at ``t0`` and the NLP's size, for reports."""
+
+    position_dof: int
+    speed_dof: int
+    n_variables: int
+    memory_estimate_bytes: float
+
+
+def check_problem(problem, method) -> Diagnostics:
+    """Raise :class:`~ocp_constraints.errors.ModelError` for the first problem found; else the counts."""
+    _check_horizon(problem)
+    _check_guesses(problem, method)
+    _check_boundary_bounds(problem)
+    eqs = problem.eqs
+    t0, tf = 0.0, float(problem.t_final)
+    free = problem.free_initial_values
+    q0, pos_dof = _positions(problem, problem.initial_values, t0, "initial", free)
+    u_dof = _speeds(problem, q0, problem.initial_values, t0, "initial", free)
+    if problem.final_values:
+        qf, _ = _positions(problem, problem.final_values, tf, "final", None)
+        _speeds(problem, qf, problem.final_values, tf, "final", None)
+    n_vars = nlp_variables(problem, method)
+    estimate = n_vars * BYTES_PER_VARIABLE
+    available = _available_memory()
+    if available is not None and estimate > 0.8 * available:
+        raise ModelError(
+            f"the NLP of '{problem.model.name}' with {method.label} (N = {method.intervals}) has {n_vars:,} "
+            f"variables and would need about {estimate / 2**30:.1f} GiB, more than the {available / 2**30:.1f} GiB "
+            f"this machine has free; use fewer intervals or a higher degree (fewer points for the same accuracy)")
+    return Diagnostics(pos_dof, u_dof, n_vars, estimate)
+
+
+def nlp_variables(problem, method) -> int:
+    """Decision variables of the transcription (see :class:`~ocp_constraints.ocp.transcription.Layout`)."""
+    e = problem.eqs
+    p = len(method.tau)
+    P = method.intervals * (p - 1) + 1
+    n_acc = 1 if method.accelerations_from_speeds is not None else P
+    return ((e.nq + e.nu + e.nc + e.inputs.numel()) * P + e.nu * n_acc + e.phi.numel() * (P - 1)
+            + int(problem.t_final_bounds is not None))
+
+
+# -- the horizon, guesses and bounds ------------------------------------------------------------
+def _check_horizon(problem) -> None:
+    if problem.t_final_bounds is None:
+        return
+    lo, hi = problem.t_final_bounds
+    if not (np.isfinite(lo) and np.isfinite(hi)) or lo <= 0 or lo > hi:
+        raise ModelError(f"t_final_bounds must be 0 < lower <= upper (seconds), got ({lo}, {hi}); "
+                         f"swap them if they are reversed")
+    if not lo <= problem.t_final <= hi:
+        raise ModelError(f"the final-time guess t_final = {problem.t_final} lies outside t_final_bounds "
+                         f"({lo}, {hi}); pass a t_final between them")
+
+
+def _check_guesses(problem, method) -> None:
+    t = np.asarray(method.mesh_fractions, float) * problem.t_final
+    for name, fn in problem.guess.items():
+        try:
+            values = np.asarray(fn(t), dtype=float)
+        except Exception as exc:  # a user's function: report whatever it raised, with the name
+            raise ModelError(f"the guess of '{name}' failed on an array of {t.size} times: "
+                             f"{type(exc).__name__}: {exc}; a guess takes an array of times (s) and returns "
+                             f"an array of the same shape") from exc
+        try:
+            values = np.broadcast_to(values, t.shape)
+        except ValueError:
+            raise ModelError(f"the guess of '{name}' returned shape {values.shape} for {t.size} times; "
+                             f"it must return one value per time (use numpy functions, e.g. np.sin, not math.sin)"
+                             ) from None
+        if not np.all(np.isfinite(values)):
+            bad = t[~np.isfinite(values)][0]
+            raise ModelError(f"the guess of '{name}' is not finite at t = {bad:g} s ({values[~np.isfinite(values)][0]})")
+
+
+def _check_boundary_bounds(problem) -> None:
+    for which, values in (("initial", problem.initial_values), ("final", problem.final_values)):
+        for name, v in values.items():
+            if not np.isfinite(v):
+                raise ModelError(f"{which} value of '{name}' is not finite ({v})")
+            lo, hi = problem.bounds.get(name, (-np.inf, np.inf))
+            if not lo <= v <= hi:
+                raise ModelError(f"{which} value of '{name}' = {v:g} lies outside its bounds [{lo:g}, {hi:g}]")
+
+
+# -- positions and speeds at an end ---------------------------------------------------------------
+def _positions(problem, values: dict, t: float, which: str, free: set | None) -> tuple[np.ndarray, int]:
+    """Coordinates at an end from its values and the position forms (Gauss-Newton on the others).
+
+    Raises if the values violate a constraint; at ``t0`` (``free`` given) also if some
+    coordinate stays undetermined. Returns the coordinates and the positional degrees of freedom.
+    """
+    eqs = problem.eqs
+    names = eqs.model.coordinate_names
+    given = [i for i, n in enumerate(names) if n in values]
+    q = np.array(_guess_at(problem, names, t), float)
+    q[given] = [values[names[i]] for i in given]
+    rest = [i for i in range(eqs.nq) if i not in given]
+    u0, w0 = np.zeros(eqs.nu), np.zeros(eqs.inputs.numel())
+    norm_rows = _quaternion_rows(eqs)
+    for _ in range(20):
+        _, _, phi, _, J = eqs.constraint_functions(q, u0, t, w0)
+        phi, J = np.asarray(phi).ravel(), np.asarray(J).reshape(-1, eqs.nq)
+        if not phi.size or np.abs(phi).max() < 1e-13 or not rest:
+            break
+        q[rest] -= np.linalg.lstsq(J[:, rest], phi, rcond=None)[0]
+    _, _, phi, _, J = eqs.constraint_functions(q, u0, t, w0)
+    phi, J = np.asarray(phi).ravel(), np.asarray(J).reshape(-1, eqs.nq)
+    if phi.size and np.abs(phi).max() > POSITION_TOL:
+        order = [k for k in np.argsort(-np.abs(phi)) if abs(phi[k]) > POSITION_TOL]
+        culprits = ", ".join(f"'{eqs.constraint_names[eqs.holonomic[k]]}' (residual {phi[k]:.3g})" for k in order)
+        raise ModelError(
+            f"the {which} values {_listing(values, names)} violate the constraints: no coordinates satisfy "
+            f"them at t = {t:g} s; nearest, {culprits}. Change the {which} values or leave out the ones "
+            f"these constraints fix")
+    dof = eqs.nq - _rank(np.vstack([J, norm_rows(q)]))
+    if free is not None:
+        fixed = [i for i, n in enumerate(names) if n in values or n in free]
+        rows = np.vstack([J, norm_rows(q), np.eye(eqs.nq)[fixed]])
+        missing = _undetermined(rows, names)
+        if missing:
+            raise ModelError(
+                f"initial values of {', '.join(missing)} are not determined: no constraint's position form and "
+                f"no initial value fixes them, so IPOPT would have to choose them (where nothing depends on them "
+                f"it cannot, and wanders). Add them with problem.initial({{{', '.join(repr(n) + ': ...' for n in missing)}}}), "
+                f"give the constraints that hold them their position forms (add_constraint(..., position=phi)), "
+                f"or declare them free with problem.leave_free({missing})")
+    return q, dof
+
+
+def _speeds(problem, q: np.ndarray, values: dict, t: float, which: str, free: set | None) -> int:
+    """Check the speed values at an end against ``G u + e = 0``; at ``t0`` also that they fix all speeds."""
+    eqs = problem.eqs
+    w0 = np.zeros(eqs.inputs.numel())
+    G, e, _, _, _ = (np.asarray(x) for x in eqs.constraint_functions(q, np.zeros(eqs.nu), t, w0))
+    G = G.reshape(eqs.nc, eqs.nu)
+    names, S = rate_rows(eqs, q)
+    given = [names.index(n) for n in values if n in names]
+    A = np.vstack([G, S[given]])
+    b = np.concatenate([-e.ravel(), [values[names[i]] for i in given]])
+    u = np.linalg.lstsq(A, b, rcond=None)[0]
+    r = A @ u - b
+    if np.abs(r).max(initial=0.0) > VELOCITY_TOL * max(1.0, np.abs(b).max(initial=0.0)):
+        culprits = [eqs.constraint_names[i] for i in range(eqs.nc) if abs(r[i]) > VELOCITY_TOL] or eqs.constraint_names
+        raise ModelError(
+            f"the {which} rates {_listing(values, names)} contradict constraint(s) {culprits}: no speeds satisfy "
+            f"both (residual {np.abs(r).max():.3g} at t = {t:g} s); give fewer {which} rates and let the "
+            f"constraints fix the rest")
+    dof = eqs.nu - _rank(G)
+    if free is not None:
+        fixed = given + [names.index(n) for n in free if n in names]
+        missing = _undetermined(np.vstack([G, S[fixed]]), eqs.model.speed_names)
+        if missing:
+            raise ModelError(
+                f"initial speeds are not determined: no constraint and no initial value fixes {', '.join(missing)}; "
+                f"IPOPT would have to choose them. Add initial rates (e.g. problem.initial({{'{missing[0]}': 0.0}}) "
+                f"for a start at rest) or declare them free with problem.leave_free({missing})")
+    return dof
+
+
+# -- helpers ---------------------------------------------------------------------------------------
+def _guess_at(problem, names: list[str], t: float) -> np.ndarray:
+    """The guess of every coordinate at ``t``: the user's, else its initial (then final) value, else 0."""
+    out = []
+    for n in names:
+        if n in problem.guess:
+            out.append(float(np.broadcast_to(np.asarray(problem.guess[n](np.array([t])), float), (1,))[0]))
+        else:
+            out.append(problem.initial_values.get(n, problem.final_values.get(n, 0.0)))
+    return np.array(out)
+
+
+def _quaternion_rows(eqs):
+    """Rows fixing each unit quaternion's length (its scale is no degree of freedom)."""
+    spans, start = [], 0
+    for b in eqs.bodies:
+        n = b.q.numel()
+        if isinstance(b.rotation, UnitQuaternion):
+            spans.append((start + 3, start + n))
+        start += n
+
+    def rows(q):
+        out = np.zeros((len(spans), eqs.nq))
+        for k, (a, b) in enumerate(spans):
+            out[k, a:b] = 2 * q[a:b]
+        return out
+
+    return rows
+
+
+def _rank(A: np.ndarray) -> int:
+    if not A.size:
+        return 0
+    s = np.linalg.svd(A, compute_uv=False)
+    return int((s > 1e-9 * max(1.0, s[0])).sum())
+
+
+def _undetermined(rows: np.ndarray, names: list[str]) -> list[str]:
+    """A smallest set of names whose values would fix the directions ``rows`` leaves free.
+
+    The null space of ``rows`` holds the free directions; QR with column pivoting of its
+    transpose picks one independent name per direction, the one that moves most.
+    """
+    _, s, vt = np.linalg.svd(rows)
+    rank = int((s > 1e-9 * max(1.0, s[0] if s.size else 1.0)).sum())
+    Z = vt[rank:].T
+    if not Z.size:
+        return []
+    _, _, pivots = scipy.linalg.qr(Z.T, pivoting=True)
+    chosen = sorted(pivots[: Z.shape[1]])
+    return [names[i] for i in chosen]
+
+
+def _listing(values: dict, names: list[str]) -> str:
+    """The values among ``names``, as the user wrote them."""
+    return "{" + ", ".join(f"{k!r}: {v:g}" for k, v in values.items() if k in names) + "}"
+
+
+def _available_memory() -> float | None:
+    try:
+        with open("/proc/meminfo") as fh:
+            for line in fh:
+                if line.startswith("MemAvailable:"):
+                    return float(line.split()[1]) * 1024
+    except OSError:
+        return None
+    return None

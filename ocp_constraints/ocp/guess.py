@@ -1,0 +1,107 @@
+"""A consistent start for IPOPT from whatever guess the user gave (any subset of coordinates, or none).
+
+At every collocation point (paper sec. 5: the motion on the constraints, loads from the balances):
+
+1. coordinates: the user's guesses, else linear between the boundary values, projected onto
+   ``phi(q, t) = 0``;
+2. speeds: the ``u`` whose coordinate rates ``N(q) u`` best match the time derivative of those
+   coordinates (and the user's speed guesses), subject to ``G u + e = 0`` and to the boundary
+   rates at the ends;
+3. accelerations: the time derivative of those speeds (the scheme's, where it derives them);
+4. multipliers and inputs: pointwise inverse dynamics ``G^T lambda + B tau = M u' - f`` (least
+   squares, smallest norm), the user's input guesses kept and the inputs clipped to their bounds.
+
+So iteration 0 has no constraint defect and, where the guessed motion is one the inputs can
+produce, no dynamics defect either.
+"""
+from __future__ import annotations
+
+import casadi as ca
+import numpy as np
+import scipy.linalg
+
+from ..dynamics.inverse import InverseDynamics
+from ..errors import ModelError
+from ..mechanics.state import project_positions
+
+
+
+def consistent_guess(tr, X: np.ndarray, W: np.ndarray, t_final: float) -> tuple[np.ndarray, ...]:
+    """``(X, A, L, W)`` blocks (``nx x P``, ``nu x P``, ``nc x P``, ``n_in x P``) for transcription ``tr``.
+
+    ``X`` holds the coordinate guesses (speed rows: the user's speed guesses or NaN) and ``W``
+    the input guesses (NaN where the user gave none).
+    """
+    e, pr = tr.eqs, tr.problem
+    t = tr.fractions * t_final
+    P, nq = len(t), e.nq
+    W0 = np.nan_to_num(W)
+    Q = np.column_stack([project_positions(e, X[:nq, i], t[i], inputs=W0[:, i]) for i in range(P)])
+    U = _speeds(tr, Q, X[nq:], t, W0)
+    A = np.gradient(U, t, axis=1) if P > 1 else np.zeros_like(U)
+    # The accelerations the NLP will see: where the scheme derives them from the speeds, those.
+    A = tr.accelerations(np.vstack([Q, U]), A[:, : tr.layout.n_acc], t_final)
+    L, W = _loads(tr, Q, U, A, t, W)
+    for r, name in enumerate(pr.model.inputs):
+        lo, hi = pr.bounds.get(name, (-np.inf, np.inf))
+        W[r] = np.clip(W[r], lo, hi)
+    return np.vstack([Q, U]), A, L, W
+
+
+def _speeds(tr, Q: np.ndarray, U_user: np.ndarray, t: np.ndarray, W: np.ndarray) -> np.ndarray:
+    e, pr = tr.eqs, tr.problem
+    P = len(t)
+    Qdot = np.gradient(Q, t, axis=1) if P > 1 else np.zeros_like(Q)
+    G, e_, _, _, _ = (np.asarray(x) for x in e.constraint_functions.map(P)(Q, np.zeros((e.nu, P)), t[None, :], W))
+    G, e_ = G.reshape(e.nc, P, e.nu).transpose(1, 0, 2), e_.reshape(e.nc, P).T
+    rate_matrix = ca.Function("rate_matrix", [e.q], [ca.jacobian(e.qdot, e.u)])     # q' = N(q) u
+    N = np.asarray(rate_matrix.map(P)(Q)).reshape(e.nq, P, e.nu).transpose(1, 0, 2)
+    rates = [f"{n}_dot" for n in e.model.coordinate_names]
+    U = np.zeros((e.nu, P))
+    for i in range(P):
+        rows, rhs = [N[i]], [Qdot[:, i]]
+        have = ~np.isnan(U_user[:, i])
+        if have.any():
+            rows.append(np.eye(e.nu)[have])
+            rhs.append(U_user[have, i])
+        hard_rows, hard_rhs = [G[i]], [-e_[i]]
+        ends = ([pr.initial_values] if i == 0 else []) + ([pr.final_values] if i == P - 1 else [])
+        for values in ends:
+            for name, v in values.items():
+                if name in rates:
+                    hard_rows.append(N[i][rates.index(name)][None, :])
+                    hard_rhs.append([v])
+                elif name in e.model.speed_names:
+                    hard_rows.append(np.eye(e.nu)[[e.model.speed_names.index(name)]])
+                    hard_rhs.append([v])
+        H, h = np.vstack(hard_rows), np.concatenate([np.ravel(r) for r in hard_rhs])
+        S, s = np.vstack(rows), np.concatenate(rhs)
+        # The hard rows exactly, the soft targets as well as they allow (least squares in their null space).
+        u = np.linalg.lstsq(H, h, rcond=None)[0]
+        Z = scipy.linalg.null_space(H)
+        if Z.size:
+            u += Z @ np.linalg.lstsq(S @ Z, s - S @ u, rcond=None)[0]
+        U[:, i] = u
+    return U
+
+
+def _loads(tr, Q, U, A, t, W_user) -> tuple[np.ndarray, np.ndarray]:
+    """Multipliers and inputs from the balances at every point; zeros where they cannot be had."""
+    e = tr.eqs
+    P, n_in = len(t), e.inputs.numel()
+    L, W = np.zeros((e.nc, P)), np.nan_to_num(W_user).copy()
+    try:
+        system = InverseDynamics(e).linear_system
+    except ModelError:          # inputs not affine in the loads: no pointwise inverse dynamics
+        return L, W
+    Asys, b = (np.asarray(x) for x in system.map(P)(Q[: e.nq], U, A, t[None, :]))
+    Asys = Asys.reshape(e.nu, P, e.nc + n_in).transpose(1, 0, 2)
+    b = b.reshape(e.nu, P)
+    given = ~np.isnan(W_user)
+    for i in range(P):
+        keep = np.concatenate([np.ones(e.nc, bool), ~given[:, i]])
+        rhs = b[:, i] - Asys[i][:, e.nc:][:, given[:, i]] @ W_user[given[:, i], i]
+        z = np.linalg.lstsq(Asys[i][:, keep], rhs, rcond=None)[0]
+        L[:, i] = z[: e.nc]
+        W[~given[:, i], i] = z[e.nc:]
+    return L, W

@@ -1,0 +1,192 @@
+"""A user's own optimal-control problem: edits after a solve take effect, mistakes are named before
+IPOPT starts, the start IPOPT gets is consistent, and Ctrl-C keeps the last iterate."""
+import math
+import os
+import signal
+
+import casadi as ca
+import numpy as np
+import pytest
+
+import ocp_constraints as oc
+from ocp_constraints.ocp.transcription import transcribe
+
+ANGLES = ("psi", "theta", "phi")
+
+
+def cart_pole(initial_angles: bool = True) -> oc.OptimalControlProblem:
+    """The cart-pole of examples/cart_pole_by_hand.py, every constraint written by hand."""
+    model = oc.Model("cart_pole", gravity=(0.0, -9.81, 0.0))
+    cart = model.add_body("cart", 1.0, np.diag([0.01, 0.01, 0.01]), rotation="321")
+    pole = model.add_body("pole", 0.5, 0.5 / 12 * np.diag([1.0, 0.0, 1.0]), rotation="321")
+    E = [ca.DM.eye(3)[:, k] for k in range(3)]
+    model.add_constraint("rail.v2", ca.dot(E[1], cart.com.v), joint="rail", position=cart.com.position[1])
+    model.add_constraint("rail.v3", ca.dot(E[2], cart.com.v), joint="rail", position=cart.com.position[2])
+    for k in range(3):
+        model.add_constraint(f"rail.w{k + 1}", ca.dot(E[k], cart.omega), joint="rail")
+    A = pole.point("A", (0.0, 0.5, 0.0))
+    for k in range(3):
+        model.add_constraint(f"hinge.v{k + 1}", ca.dot(E[k], A.v - cart.com.v), joint="hinge",
+                             position=A.position[k] - cart.com.position[k])
+    for k in range(2):
+        model.add_constraint(f"hinge.w{k + 1}", ca.dot(E[k], pole.omega - cart.omega), joint="hinge")
+    push = model.add_input("push")
+    model.add_force("push", cart.com, ca.vertcat(push, 0, 0))
+    ocp = oc.OptimalControlProblem(model, t_final=2.0)
+    ocp.initial({"cart.x": 0.0, "pole.psi": 0.0, "cart.vbar_x": 0.0, "pole.omega_z": 0.0})
+    if initial_angles:
+        ocp.initial({f"{b}.{a}": 0.0 for b in ("cart", "pole") for a in ANGLES if (b, a) != ("pole", "psi")})
+    ocp.final({"cart.x": 0.0, "pole.psi": math.pi, "cart.vbar_x": 0.0, "pole.omega_z": 0.0})
+    ocp.bound("push", -40.0, 40.0)
+    ocp.minimize_effort(["push"])
+    return ocp
+
+
+# -- edits after a solve ---------------------------------------------------------------------------
+def test_an_objective_term_added_after_a_solve_changes_the_next_solve():
+    ocp = cart_pole()
+    first = ocp.solve(oc.Radau(15, degree=3))
+    ocp.minimize_effort(["push"], weight=9.0)        # the objective is now 10 times the first one
+    second = ocp.solve(oc.Radau(15, degree=3))
+    # Scaling an objective keeps its minimizer: the optimum is 10 times the first, same motion.
+    assert second.objective == pytest.approx(10 * first.objective, rel=1e-6)
+    assert np.allclose(second.sample("push"), first.sample("push"), atol=1e-5)
+
+
+def test_bounds_and_boundary_values_edited_after_a_solve_are_seen():
+    ocp = cart_pole()
+    method = oc.Radau(15, degree=3)
+    first = ocp.solve(method)
+    assert np.abs(first.sample("push")).max() > 12.0
+    ocp.bound("push", -12.0, 12.0)
+    ocp.final({"cart.x": 0.3})
+    second = ocp.solve(method)
+    assert np.abs(second.sample("push")).max() <= 12.0 + 1e-6
+    assert second.sample("cart.x")[-1] == pytest.approx(0.3, abs=1e-8)
+    assert second.objective > first.objective
+
+
+def test_a_path_constraint_added_after_a_solve_holds_in_the_next_solve():
+    ocp = cart_pole()
+    method = oc.Radau(15, degree=3)
+    first = ocp.solve(method)
+    assert first.sample("cart.x").max() > 0.05
+    ocp.subject_to(ocp.quantity("cart.x"), -np.inf, 0.05, "cart stays left of 5 cm")
+    second = ocp.solve(method)
+    assert second.sample("cart.x").max() <= 0.05 + 1e-8
+
+
+def test_a_model_changed_after_the_problem_was_made_is_refused():
+    ocp = cart_pole()
+    ocp.model.add_input("second_push")
+    with pytest.raises(oc.ModelError, match="changed after"):
+        ocp.solve(oc.Radau(10, degree=3))
+
+
+# -- named before IPOPT starts ----------------------------------------------------------------------
+def test_undetermined_initial_values_are_named_before_any_solve():
+    ocp = cart_pole(initial_angles=False)
+    with pytest.raises(oc.ModelError) as info:
+        ocp.solve(oc.Radau(15, degree=3))
+    message = str(info.value)
+    for name in ("cart.psi", "cart.theta", "cart.phi", "pole.theta", "pole.phi"):
+        assert name in message
+    assert "pole.psi" not in message.split("problem.initial")[0]      # it was given
+    assert not getattr(ocp, "_transcriptions", {})                   # nothing was built or solved
+
+
+def test_declared_free_initial_values_are_accepted():
+    ocp = cart_pole(initial_angles=False)
+    ocp.leave_free([f"cart.{a}" for a in ANGLES])
+    with pytest.raises(oc.ModelError) as info:
+        ocp.solve(oc.Radau(15, degree=3))
+    assert "cart.psi" not in str(info.value) and "pole.theta" in str(info.value)
+
+
+@pytest.mark.parametrize("edit, culprit", [
+    (lambda p: p.initial({"cart.y": 0.2}), "rail.v2"),                       # the rail holds y = 0
+    (lambda p: p.final({"pole.y": 0.7}), "hinge.v2|rail.v2"),               # farther than the pole's length
+    (lambda p: p.initial({"cart.vbar_y": 1.0}), "rail.v2"),                  # the rail forbids it
+    (lambda p: p.initial({"push": 99.0}), "push"),                           # outside its bounds
+    (lambda p: p.set_guess("cart.x", lambda t: np.full_like(t, np.nan)), "cart.x"),
+    (lambda p: p.set_guess("cart.x", lambda t: math.sin(t)), "cart.x"),      # not an array function
+])
+def test_inconsistent_inputs_are_named_before_any_solve(edit, culprit):
+    ocp = cart_pole()
+    edit(ocp)
+    with pytest.raises(oc.ModelError, match=culprit.replace(".", r"\.")):  # the culprit is named
+        ocp.solve(oc.Radau(10, degree=3))
+
+
+def test_reversed_free_final_time_bounds_are_named():
+    ocp = cart_pole()
+    ocp.t_final_bounds = (3.0, 1.0)
+    with pytest.raises(oc.ModelError, match="t_final_bounds"):
+        ocp.solve(oc.Radau(10, degree=3))
+
+
+def test_an_nlp_larger_than_the_memory_is_refused_with_the_estimate():
+    with pytest.raises(oc.ModelError, match="GiB"):
+        cart_pole().solve(oc.Radau(2_000_000, degree=3))
+
+
+# -- a consistent start ----------------------------------------------------------------------------
+def test_the_start_is_on_the_constraints():
+    """From guesses of two coordinates only, every point of the start satisfies phi = 0 and G u + e = 0."""
+    ocp = cart_pole()
+    tr = transcribe(ocp, oc.Radau(20, degree=3))
+    X, _, _, W, _, _ = (np.asarray(b) for b in tr.layout.split(tr.initial_guess()))
+    e, t = tr.eqs, tr.fractions * ocp.t_final
+    for i in range(len(t)):
+        _, _, phi, pi, _ = (np.asarray(v) for v in e.constraint_functions(X[: e.nq, i], X[e.nq:, i], t[i], W[:, i]))
+        assert np.abs(phi).max() < 1e-10 and np.abs(pi).max() < 1e-9
+
+
+def test_the_start_has_no_dynamics_defect_where_the_inputs_can_produce_the_motion():
+    """Pendulum swing-up (one motor, one degree of freedom: any guessed motion can be produced):
+    at iteration 0 the NLP's balances M u' - f - G^T lambda - B tau are zero at every point whose
+    torque stays inside the motor's bounds (|tau| <= 20 N m)."""
+    _, ocp = oc.build_task("pendulum", "swing_up")
+    tr = transcribe(ocp, oc.Radau(20, degree=3))
+    x0 = tr.initial_guess()
+    g = np.asarray(ca.Function("g", [tr.nlp["x"]], [tr.nlp["g"]])(x0)).ravel()
+    _, _, _, W, _, _ = (np.asarray(b) for b in tr.layout.split(x0))
+    nu, p = tr.eqs.nu, 4
+    first = [tr.block.rows("point", 0)] + [tr.block.rows("collocation_point", n) for n in range(20 * (p - 1))]
+    inside = np.abs(W[0]) < 20.0 - 1e-9
+    assert inside.sum() >= 50
+    worst = max(np.abs(g[r: r + nu]).max() for r, ok in zip(first, inside) if ok)
+    assert worst < 1e-9
+
+
+def test_the_user_problem_converges_from_the_completed_guess_to_the_optimum_of_both_guesses():
+    """A guess of every coordinate (the pole swinging up linearly) and none at all (linear between
+    boundary values) reach the same optimum."""
+    with_guess = cart_pole()
+    with_guess.set_guess("pole.psi", lambda t: math.pi * t / 2)
+    a = with_guess.solve(oc.Radau(20, degree=3))
+    b = cart_pole().solve(oc.Radau(20, degree=3))
+    assert a.success and b.success
+    assert a.objective == pytest.approx(b.objective, rel=1e-7)
+
+
+# -- interruption ----------------------------------------------------------------------------------
+def test_sigint_stops_ipopt_and_keeps_the_last_iterate(monkeypatch):
+    """A real SIGINT, sent to this process during IPOPT's third iteration."""
+    from ocp_constraints.ocp.progress import IterationMonitor
+
+    original = IterationMonitor.eval
+
+    def eval_and_interrupt(self, arg):
+        if self.iterations == 2:
+            os.kill(os.getpid(), signal.SIGINT)
+        return original(self, arg)
+
+    monkeypatch.setattr(IterationMonitor, "eval", eval_and_interrupt)
+    with pytest.raises(oc.OCPSolveError) as info:
+        cart_pole().solve(oc.Radau(20, degree=3))
+    sol = info.value.solution
+    assert sol.status == "interrupted by SIGINT" and not sol.success
+    assert sol.iterations == 2       # IPOPT counts from 0: stopped in the callback after iteration 2
+    assert np.all(np.isfinite(sol.decision_vector))
+    assert signal.getsignal(signal.SIGINT) is signal.default_int_handler     # the handler is given back
