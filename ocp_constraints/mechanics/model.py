@@ -57,6 +57,8 @@ class Model:
     forces: list[PointForce] = field(default_factory=list)
     torques: list[BodyTorque] = field(default_factory=list)
     inputs: dict[str, ca.SX] = field(default_factory=dict)
+    #: constraint name -> what its multiplier is (written by the joint library; see :meth:`describe`)
+    constraint_notes: dict[str, str] = field(default_factory=dict)
 
     def __post_init__(self) -> None:
         self.t = ca.SX.sym("t")
@@ -168,6 +170,43 @@ class Model:
             return self.joints[name]
         except KeyError:
             raise ModelError(f"model '{self.name}' has no joint '{name}' (joints: {', '.join(self.joints)})") from None
+
+    def describe(self) -> str:
+        """Every joint, its constraints, their multipliers and what each multiplier is (text).
+
+        One block per joint: the bodies, the point its load acts at on each, and the
+        ``loads.csv`` columns; then one line per scalar constraint: ``<name>.lambda`` and the
+        force component (along which vector, in which basis) or moment component (about
+        which axis) it is. Joints from :mod:`~ocp_constraints.mechanics.joints` say so in
+        words; a constraint written by hand is described by its gradients
+        ``f = d(pi)/d(v_C)`` and ``h = d(pi)/d(omega)`` (Lagrange's prescription, eq. 26).
+        ``print(model.describe())`` to read it.
+        """
+        lines = [f"model '{self.name}': {len(self.bodies)} bodies, {len(self.joints)} joints, "
+                 f"{len(self.constraints)} scalar constraints (one multiplier each)"]
+        for j in self.joints.values():
+            bodies = j.bodies
+            where = ", ".join(f"'{b.name}' at {j.points[b.name].label}" for b in bodies)
+            kind = "on one body" if len(bodies) == 1 else "between two bodies, equal and opposite loads"
+            cols = [j.name] if len(bodies) == 1 else [f"{j.name}@{b.name}" for b in bodies]
+            lines.append(f"joint '{j.name}' ({kind}): acts on {where}; loads.csv columns "
+                         + " and ".join(f"{c}.*" for c in cols) + " (F_x/y/z, M_x/y/z, point_x/y/z, power)")
+            for c in j.constraints:
+                lines.append(f"  {c.name}.lambda: {self.constraint_notes.get(c.name) or _gradient_note(c)}")
+        return "\n".join(lines)
+
+
+def _gradient_note(c: Constraint) -> str:
+    """What a hand-written constraint's multiplier is, from its gradients (eq. 26)."""
+    parts = []
+    for s in c.shares:
+        for kind, v in (("force", s.f), ("moment", s.h)):
+            if v.nnz():
+                along = str(np.asarray(ca.evalf(v)).ravel().round(6).tolist()) if v.is_constant() \
+                    else "a direction that depends on the coordinates"
+                at = f" at {s.point.label}" if kind == "force" else ""
+                parts.append(f"{kind} lambda x {along} (fixed basis) on '{s.body.name}'{at}")
+    return "; ".join(parts)
 
 
 def _vector3(value, what: str) -> ca.SX:
