@@ -1,5 +1,6 @@
 """Knee contact loads by direct collocation with activation dynamics (issue 7, item (b))."""
 import json
+import re
 from pathlib import Path
 
 import numpy as np
@@ -34,7 +35,15 @@ def stance():
     return gait.t, Qc, R, A, F0
 
 
-def test_fast_activation_limit_is_the_static_optimisation(stance):
+@pytest.fixture(scope="module")
+def realistic(stance):
+    """The collocation solution with the default (De Groote et al. 2016) time constants, shared by two tests."""
+    from ocp_constraints.biomech.knee_collocation import solve_collocation
+
+    return solve_collocation(*stance)
+
+
+def test_fast_activation_limit_is_the_static_optimisation(stance, realistic):
     """tau -> 0: the collocation loads approach the static ones frame by frame (cold start, no static guess)."""
     from ocp_constraints.biomech.knee_collocation import solve_collocation
     from ocp_constraints.biomech.knee_static import solve_static
@@ -50,16 +59,16 @@ def test_fast_activation_limit_is_the_static_optimisation(stance):
     assert errs[1] < errs[0]                                  # converges as tau decreases
     assert errs[1] < 0.05 * 614.25                            # within 5 % of a body weight at 1 ms
     # a realistic (slow) activation changes the loads: the limit is not trivially met
-    slow = solve_collocation(t, Qc, R, A, F0)
+    slow = realistic
     assert max(np.abs(slow.medial - st.medial).max(), np.abs(slow.lateral - st.lateral).max()) > errs[1]
 
 
-def test_activation_ode_residual_and_contact_signs(stance):
+def test_activation_ode_residual_and_contact_signs(stance, realistic):
     """Backward-Euler (Radau IIA) defects recomputed independently <= 1e-8; N >= -1e-8; bounds on a, e."""
-    from ocp_constraints.biomech.knee_collocation import TAU_ACT, TAU_DEACT, solve_collocation
+    from ocp_constraints.biomech.knee_collocation import TAU_ACT, TAU_DEACT
 
     t, Qc, R, A, F0 = stance
-    col = solve_collocation(t, Qc, R, A, F0)
+    col = realistic
     a, e = col.activation, col.excitation
     h = np.diff(t)[:, None]
     d = a[1:] - a[:-1] - h * _rate(e[1:], a[1:], TAU_ACT, TAU_DEACT)
@@ -83,14 +92,62 @@ def test_failed_solve_names_ipopt_status(stance):
         solve_collocation(t, Qc, R, A, F0, max_iter=2, warm_start=False)
 
 
+def _every_kth_frame_csv(path: Path, k: int) -> np.ndarray:
+    """The IK motion with every k-th frame only, as a JW-style .csv (degrees); returns its times."""
+    import scipy.io
+
+    mat = scipy.io.loadmat(str(IK), squeeze_me=True, struct_as_record=False)
+    s = next(v for key, v in mat.items() if not key.startswith("__"))
+    data = np.asarray(s.data, float)[::k]
+    path.write_text(",".join(str(n) for n in s.colheaders) + "\n"
+                    + "".join(",".join(repr(float(v)) for v in row) + "\n" for row in data))
+    return data[:, 0]
+
+
 def test_cli_collocation_writes_summary(tmp_path):
+    """The command on the whole gait cycle, with the motion thinned to every 4th frame (30 Hz, ~33 frames)
+    so the NLP is small; its files are checked against values recomputed from them and the raw data.
+
+    (The full 120 Hz cycle, 133 frames, takes ~1.5 min on 2 cores: ``ocp-constraints knee ... --method
+    collocation`` on the original IK file.)
+    """
+    import scipy.io
+
+    from ocp_constraints.biomech.knee_collocation import TAU_ACT, TAU_DEACT
     from ocp_constraints.cli.main import main
 
+    motion = tmp_path / "ik_30hz.csv"
+    t_motion = _every_kth_frame_csv(motion, 4)
     out = tmp_path / "col"
-    assert main(["knee", "--model", str(JW_MODEL), "--motion", str(IK), "--grf", str(GRF), "--measured", str(KCF),
+    assert main(["knee", "--model", str(JW_MODEL), "--motion", str(motion), "--grf", str(GRF), "--measured", str(KCF),
                  "--method", "collocation", "--out", str(out), "--no-plots"]) == 0
     s = json.loads((out / "summary.json").read_text())
     assert s["method"] == "collocation" and s["success"] is True
     assert s["solver"]["status"] == "Solve_Succeeded"
+    t0, t1 = s["gait_cycle_s"]
+    in_cycle = t_motion[(t_motion >= t0 - 1e-9) & (t_motion <= t1 + 1e-9)]
+    assert s["frames"] == len(in_cycle) >= 30                 # the thinned motion's frames in the cycle
+    tab = np.genfromtxt(out / "loads.csv", delimiter=",", names=True, deletechars="")
+    assert np.allclose(tab["t"], in_cycle, rtol=0, atol=1e-9)
+    # activation dynamics, backward Euler on the frames, recomputed from loads.csv with the independent rate
+    muscles = [n[: -len(".activation")] for n in tab.dtype.names if n.endswith(".activation")]
+    a = np.column_stack([tab[f"{m}.activation"] for m in muscles])
+    e = np.column_stack([tab[f"{m}.excitation"] for m in muscles])
+    h = np.diff(tab["t"])[:, None]
+    assert np.abs(a[1:] - a[:-1] - h * _rate(e[1:], a[1:], TAU_ACT, TAU_DEACT)).max() <= 1e-8
     assert s["solver"]["max_activation_ode_residual"] <= 1e-8
+    assert np.all(tab["N_medial"] >= -1e-8) and np.all(tab["N_lateral"] >= -1e-8)
+    # the comparison, recomputed from loads.csv and the raw KCF file (medial = PM + AM, lbf -> N) in body
+    # weights from the .osim masses and gravity
+    kcf = next(v for key, v in scipy.io.loadmat(str(KCF), squeeze_me=True, struct_as_record=False).items()
+               if not key.startswith("__"))
+    cols = [str(c) for c in kcf.colheaders]
+    d = np.asarray(kcf.data, float)
+    medial = (d[:, cols.index("PM")] + d[:, cols.index("AM")]) * 4.4482216153
+    osim = JW_MODEL.read_text()
+    gravity = np.linalg.norm([float(x) for x in re.search(r"<gravity>([^<]*)</gravity>", osim).group(1).split()])
+    bw = sum(float(m) for m in re.findall(r"<mass>([^<]*)</mass>", osim)) * gravity
+    assert s["body_weight_N"] == pytest.approx(bw, rel=1e-12)
+    rmse = np.sqrt(np.mean((tab["N_medial"] - np.interp(tab["t"], d[:, 0], medial)) ** 2)) / bw
     assert set(s["comparison"]) == {"medial", "lateral", "total"}
+    assert s["comparison"]["medial"]["rmse_bw"] == pytest.approx(rmse, rel=1e-9)

@@ -87,6 +87,10 @@ class _Integrators:
             self._cache[n] = ca.integrator(
                 f"forward_{n}", "cvodes", self.dae, 0.0, grid,
                 {"abstol": o.atol, "reltol": o.rtol, "max_num_steps": o.max_steps,
+                 # CVODES gives up once its step falls below 1e-13 of the segment (it only
+                 # gets there where the rates blow up, e.g. at an Euler singularity); without
+                 # this floor it spends max_steps steps of t + h == t (~1 min) before failing.
+                 "min_step_size": 1e-13 * grid[-1],
                  "linear_multistep_method": o.method},
             )
         return self._cache[n]
