@@ -22,7 +22,8 @@ from pathlib import Path
 
 import pytest
 
-from ocp_constraints.batch import BatchSpecError, add_batch_parser, load_spec, read_table, run_batch
+from ocp_constraints.batch import BatchSpecError, load_spec, read_table, run_batch
+from ocp_constraints.cli.batch import add_batch_parser
 
 try:
     import distributed
@@ -69,6 +70,7 @@ def _write_spec(folder: Path, lengths=LENGTHS, angles=ANGLES, broken: bool = Tru
 
 
 def _cli(argv: list[str]) -> int:
+    """The batch subcommand's parser and handler, as the command line runs them."""
     parser = argparse.ArgumentParser(prog="ocp-constraints")
     add_batch_parser(parser.add_subparsers(dest="command", required=True))
     args = parser.parse_args(argv)
@@ -150,10 +152,9 @@ def test_cli_reports_bad_spec_and_missing_dask(tmp_path, capsys):
     assert _cli(["batch", str(spec), "--out", str(tmp_path / "out")]) == 2
     err = capsys.readouterr().err
     assert err.startswith("error: ") and "bad_spec.toml: sweep 1 (L): empty list" in err and err.count("\n") == 1
-    code = ("import sys; sys.modules['dask.distributed'] = sys.modules['distributed'] = None\n"
-            "import argparse; from ocp_constraints.batch import add_batch_parser\n"
-            "p = argparse.ArgumentParser(); add_batch_parser(p.add_subparsers())\n"
-            f"a = p.parse_args(['batch', {str(spec)!r}, '--out', 'x']); sys.exit(a.handler(a))")
+    code = ("import runpy, sys; sys.modules['dask.distributed'] = sys.modules['distributed'] = None\n"
+            f"sys.argv = ['ocp-constraints', 'batch', {str(spec)!r}, '--out', 'x']\n"
+            "runpy.run_module('ocp_constraints', run_name='__main__', alter_sys=True)")   # python -m, no Dask
     p = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=120)
     assert p.returncode == 2
     assert p.stderr.strip() == 'error: ocp-constraints batch needs Dask: pip install -e ".[batch]"'
@@ -220,7 +221,8 @@ def test_a_failing_run_is_one_failed_row_with_its_message(local_batch):
 
 
 @needs_dask
-def test_resume_runs_only_what_is_missing(local_batch, spec, client, tmp_path):
+def test_resume_runs_only_what_is_missing(local_batch, spec, tmp_path, capsys):
+    """Through the command, on its own embedded cluster (--workers 1)."""
     out = tmp_path / "out"
     shutil.copytree(local_batch.out, out)
     rows = read_table(out)
@@ -228,17 +230,19 @@ def test_resume_runs_only_what_is_missing(local_batch, spec, client, tmp_path):
     failed = next(r["id"] for r in rows if r["status"] == "failed")
     (out / "runs" / redo / "done.json").unlink()
     before = _mtimes(out)
-    result = run_batch(spec, out, client=client, resume=True, progress=False)
+    assert _cli(["batch", str(spec), "--out", str(out), "--resume", "--workers", "1"]) == 1   # one run fails
     status = {r["id"]: r["status"] for r in read_table(out)}
     assert status.pop(redo) == "succeeded" and status.pop(failed) == "failed"   # a failed run is run again
     assert set(status.values()) == {"skipped"} and len(status) == 11
     after = _mtimes(out)
     assert {k for k in before if after[k] != before[k]} == {redo, failed}
-    assert result.counts == {"pending": 0, "succeeded": 1, "failed": 1, "skipped": 11, "cancelled": 0}
+    assert "batch: 1 succeeded, 1 failed, 11 skipped (of 13 runs)" in capsys.readouterr().out
+    assert json.loads((out / "batch.json").read_text())["counts"] == {
+        "pending": 0, "succeeded": 1, "failed": 1, "skipped": 11, "cancelled": 0}
 
 
 @needs_dask
-def test_ctrl_c_leaves_a_consistent_table_and_resume_finishes(client, tmp_path):
+def test_ctrl_c_leaves_a_consistent_table_and_resume_finishes(client, tmp_path, capsys):
     spec = _write_spec(tmp_path, lengths=[1.1, 1.2], angles=[10, 20], broken=False)
     out = tmp_path / "out"
 
@@ -259,7 +263,11 @@ def test_ctrl_c_leaves_a_consistent_table_and_resume_finishes(client, tmp_path):
     for rid, s in status.items():
         assert (out / "runs" / rid / "done.json").exists() == (s == "succeeded")
     before = _mtimes(out)
-    run_batch(spec, out, client=client, resume=True, progress=False)
+    capsys.readouterr()
+    run_batch(spec, out, client=client, resume=True, progress=True)
+    err = capsys.readouterr().err   # the dashboard's address and the progress line
+    n = list(status.values()).count("cancelled")
+    assert "Dask dashboard: http://127.0.0.1:" in err and f"\rbatch: {n}/{n} done, 0 failed, 0 running" in err
     resumed = {r["id"]: r["status"] for r in read_table(out)}
     assert resumed == {rid: "skipped" if s == "succeeded" else "succeeded" for rid, s in status.items()}
     after = _mtimes(out)

@@ -12,7 +12,6 @@ them as ``cancelled``, and ``KeyboardInterrupt`` raised again.
 """
 from __future__ import annotations
 
-import json
 import logging
 import os
 import re
@@ -26,7 +25,7 @@ from dataclasses import dataclass, replace
 from pathlib import Path
 
 from .spec import OUT, Run, as_runs
-from .table import ProgressLine, atomic_write_json, counts, make_row, read_summary, write_table
+from .table import ProgressLine, atomic_write_json, counts, make_row, read_json, read_summary, write_table
 
 DONE = "done.json"
 _TAKES_OUT: dict[str, bool] = {}
@@ -53,8 +52,9 @@ def run_batch(specs, out, client=None, workers: int = 2, resume: bool = False, p
     """Run every run of ``specs`` (a spec file path, a list of sweep dicts or of :class:`Run`).
 
     ``client``: a ``distributed.Client`` to use; by default an embedded ``LocalCluster`` of
-    ``workers`` single-threaded processes is started and closed. ``progress``: one status
-    line on stderr (``None``: only when stderr is a terminal).
+    ``workers`` single-threaded processes is started and closed. ``progress``: the Dask
+    dashboard's address and one status line on stderr (``None``: the line only when stderr is
+    a terminal). Returns the rows; raises ``KeyboardInterrupt`` again after a Ctrl-C.
     """
     try:
         from distributed import Client, LocalCluster, as_completed
@@ -68,7 +68,7 @@ def run_batch(specs, out, client=None, workers: int = 2, resume: bool = False, p
     meta = {"out": str(out), "started": time.strftime("%Y-%m-%dT%H:%M:%S"), "resume": resume}
     todo = []
     for i, run in enumerate(runs):
-        rec = _read_json(out / "runs" / run.id / DONE) if resume else None
+        rec = read_json(out / "runs" / run.id / DONE) if resume else None
         if rec and rec.get("exit_code") == 0 and rec.get("args") == list(run.args):
             rows[i] = _row(run, rec, "skipped")
         else:
@@ -88,8 +88,11 @@ def run_batch(specs, out, client=None, workers: int = 2, resume: bool = False, p
             cluster = _local_cluster(LocalCluster, workers)
             client = Client(cluster)
         meta["scheduler"] = client.scheduler.address
-        link = _dashboard(client)
-        if link and show:
+        try:
+            link = client.dashboard_link
+        except Exception:   # this scheduler serves no dashboard
+            link = None
+        if link and progress is not False:
             print(f"Dask dashboard: {link}", file=sys.stderr)
         for i in todo:
             run, run_dir = runs[i], out / "runs" / runs[i].id
@@ -140,7 +143,7 @@ def execute_run(args: list[str], run_dir: str, cwd: str, token: str, cancel_file
     after finishing), it returns the recorded result instead of running again.
     """
     run_dir_p = Path(run_dir)
-    rec = _read_json(run_dir_p / DONE)
+    rec = read_json(run_dir_p / DONE)
     if rec and rec.get("token") == token:
         return rec
     rec = {"status": "cancelled", "exit_code": None, "wall_time": None, "worker": _worker_address(),
@@ -212,7 +215,7 @@ def _local_cluster(LocalCluster, workers: int):
     previous = signal.signal(signal.SIGINT, signal.SIG_IGN) if main else None
     try:   # spawned workers inherit SIG_IGN
         return LocalCluster(n_workers=workers, threads_per_worker=1, processes=True, dashboard_address=":0",
-                            host="127.0.0.1", silence_logs=logging.ERROR)
+                            host="127.0.0.1", silence_logs=logging.CRITICAL)
     finally:
         if main:
             signal.signal(signal.SIGINT, previous)
@@ -232,7 +235,7 @@ def _interrupt(client, futures: dict, runs: list[Run], rows: list[dict], out: Pa
         pass
     for fut in pending:   # done.json of this batch: finished whole, whether or not its result arrived
         i = futures[fut]
-        rec = _read_json(out / "runs" / runs[i].id / DONE)
+        rec = read_json(out / "runs" / runs[i].id / DONE)
         if rec and rec.get("token") == token:
             rows[i] = _row(runs[i], rec)
 
@@ -268,15 +271,6 @@ def _with_out(run: Run) -> Run:
     return replace(run, args=(*run.args, "--out", token)) if _TAKES_OUT[command] else run
 
 
-def _read_json(path: Path) -> dict | None:
-    try:
-        with open(path, encoding="utf-8") as fh:
-            data = json.load(fh)
-        return data if isinstance(data, dict) else None
-    except (OSError, ValueError):
-        return None
-
-
 def _last_line(path: Path) -> str:
     try:
         lines = path.read_text(encoding="utf-8", errors="replace").strip().splitlines()
@@ -291,13 +285,6 @@ def _worker_address() -> str:
 
         return get_worker().address
     except (ImportError, ValueError):
-        return ""
-
-
-def _dashboard(client) -> str:
-    try:
-        return client.dashboard_link or ""
-    except Exception:   # no dashboard on this scheduler
         return ""
 
 

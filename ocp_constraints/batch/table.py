@@ -55,13 +55,19 @@ def headline(summary: dict) -> dict:
     return out
 
 
+def read_json(path: str | os.PathLike) -> dict | None:
+    """The JSON object in ``path`` (None when absent, unreadable or not an object)."""
+    try:
+        with open(path, encoding="utf-8") as fh:
+            data = json.load(fh)
+    except (OSError, ValueError):
+        return None
+    return data if isinstance(data, dict) else None
+
+
 def read_summary(run_dir: str | os.PathLike) -> dict:
     """The headline numbers of ``run_dir/summary.json`` ({} when absent or unreadable)."""
-    try:
-        with open(Path(run_dir) / "summary.json", encoding="utf-8") as fh:
-            return headline(json.load(fh))
-    except (OSError, ValueError):
-        return {}
+    return headline(read_json(Path(run_dir) / "summary.json") or {})
 
 
 def make_row(run, status: str = "pending", exit_code=None, wall_time=None, worker: str = "",
