@@ -103,3 +103,9 @@ class ImplantGeometryError(OcpConstraintsError, ValueError):
 
 class KneeError(OcpConstraintsError, ValueError):
     """A knee-load computation cannot run: bad files, missing coordinates, solver failure."""
+
+
+# -- batches
+
+class BatchSpecError(OcpConstraintsError, ValueError):
+    """A batch spec (file or sweep tables) is unusable."""

@@ -4,14 +4,14 @@ A spec (TOML) lists runs as CLI argument templates with sweep variables, expande
 Cartesian product (:mod:`.spec`); :func:`run_batch` runs each as
 ``python -m ocp_constraints ARGS`` in a Dask task, on an embedded ``LocalCluster`` or an
 existing ``distributed.Client`` (:mod:`.runner`), and keeps ``DIR/batch.csv`` and
-``DIR/batch.json`` up to date (:mod:`.table`). :func:`add_batch_parser` adds the
-subcommand to an argparse parser (:mod:`.command`). Dask (``dask[distributed]``, the
+``DIR/batch.json`` up to date (:mod:`.table`). The subcommand's arguments are
+:mod:`ocp_constraints.cli.batch`. Dask (``dask[distributed]``, the
 ``batch`` extra) is imported only when a batch runs.
 """
-from .command import add_batch_parser
 from .runner import BatchResult, execute_run, run_batch
-from .spec import BatchSpecError, Run, expand_sweeps, load_spec
+from ..errors import BatchSpecError
+from .spec import Run, expand_sweeps, load_spec
 from .table import headline, read_table
 
-__all__ = ["add_batch_parser", "run_batch", "BatchResult", "execute_run", "load_spec", "expand_sweeps", "Run",
+__all__ = ["run_batch", "BatchResult", "execute_run", "load_spec", "expand_sweeps", "Run",
            "BatchSpecError", "headline", "read_table"]

@@ -28,15 +28,11 @@ import tomllib
 from dataclasses import dataclass, field
 from pathlib import Path
 
-from ..errors import OcpConstraintsError
+from ..errors import BatchSpecError
 
 OUT = "out"   # the placeholder of the run's folder
 _PLACEHOLDER = re.compile(r"\{([A-Za-z_][A-Za-z0-9_]*)\}")
 _UNSAFE = re.compile(r"[^A-Za-z0-9._=+-]+")
-
-
-class BatchSpecError(OcpConstraintsError, ValueError):
-    """A batch spec (file or sweep tables) is unusable."""
 
 
 @dataclass(frozen=True)

@@ -105,3 +105,26 @@ def _loads(tr, Q, U, A, t, W_user) -> tuple[np.ndarray, np.ndarray]:
         L[:, i] = z[: e.nc]
         W[~given[:, i], i] = z[e.nc:]
     return L, W
+
+
+def from_solution(tr, solution) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """States, multipliers and inputs at ``tr``'s points from a solution of the same problem on another
+    mesh or scheme (mesh refinement), through the solution's collocation polynomials."""
+    from .solution import OCPSolution
+
+    if not isinstance(solution, OCPSolution):
+        raise ModelError(f"warm_start must be a solution from problem.solve (an OCPSolution, or an "
+                         f"OCPSolveError's .solution), got {type(solution).__name__}")
+    pr, other = tr.problem, solution.transcription.problem
+    for what, ours, theirs in (("coordinates", pr.model.coordinate_names, other.model.coordinate_names),
+                               ("inputs", list(pr.model.inputs), list(other.model.inputs)),
+                               ("constraints", tr.eqs.constraint_names, solution.transcription.eqs.constraint_names)):
+        if list(ours) != list(theirs):
+            raise ModelError(f"warm_start: the solution's model '{other.model.name}' has {what} {list(theirs)}, "
+                             f"this problem's model '{pr.model.name}' has {list(ours)}; pass a solution of the same model")
+    t = tr.fractions * solution.t_final
+    names = pr.model.coordinate_names + pr.model.speed_names
+    X = np.array([solution.interpolate(n, t) for n in names])
+    L = np.array([solution.interpolate(f"{c}.lambda", t) for c in tr.eqs.constraint_names]).reshape(tr.layout.nc, -1)
+    W = np.array([solution.interpolate(n, t) for n in pr.model.inputs]).reshape(tr.layout.n_in, -1)
+    return X, L, W

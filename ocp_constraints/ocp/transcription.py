@@ -34,7 +34,7 @@ import numpy as np
 
 from ..errors import ModelError
 from .nlp_assembly import BlockNLP, element
-from .guess import consistent_guess
+from .guess import consistent_guess, from_solution
 from .progress import IterationMonitor, stop_on_signals
 from .solution import OCPSolution
 from ..errors import OCPSolveError
@@ -332,26 +332,10 @@ class Transcription:
         return self._pack(X, L, W, pr.t_final, A=A)
 
     def guess_from(self, solution: OCPSolution) -> np.ndarray:
-        """A start for this transcription from a solution of the same problem on another mesh
-        or scheme (mesh refinement): states, multipliers and inputs through the solution's
-        collocation polynomials, positions projected onto ``phi = 0``."""
-        if not isinstance(solution, OCPSolution):
-            raise ModelError(f"warm_start must be a solution from problem.solve (an OCPSolution, or an "
-                             f"OCPSolveError's .solution), got {type(solution).__name__}")
-        if solution.transcription is self:
+        """A start from a solution of this problem on another mesh or scheme (:func:`.guess.from_solution`)."""
+        if getattr(solution, "transcription", None) is self:
             return np.asarray(solution.decision_vector, float)
-        pr, other = self.problem, solution.transcription.problem
-        for what, ours, theirs in (("coordinates", pr.model.coordinate_names, other.model.coordinate_names),
-                                   ("inputs", list(pr.model.inputs), list(other.model.inputs)),
-                                   ("constraints", self.eqs.constraint_names, solution.transcription.eqs.constraint_names)):
-            if list(ours) != list(theirs):
-                raise ModelError(f"warm_start: the solution's model '{other.model.name}' has {what} {list(theirs)}, "
-                                 f"this problem's model '{pr.model.name}' has {list(ours)}; pass a solution of the same model")
-        t = self.fractions * solution.t_final
-        names = pr.model.coordinate_names + pr.model.speed_names
-        X = np.array([solution.interpolate(n, t) for n in names])
-        L = np.array([solution.interpolate(f"{c}.lambda", t) for c in self.eqs.constraint_names]).reshape(self.layout.nc, -1)
-        W = np.array([solution.interpolate(n, t) for n in pr.model.inputs]).reshape(self.layout.n_in, -1)
+        X, L, W = from_solution(self, solution)
         return self._pack(X, L, W, solution.t_final)
 
     def _pack(self, X, L, W, t_final: float, A: np.ndarray | None = None) -> np.ndarray:

@@ -49,8 +49,8 @@ def run_batch_command(args: argparse.Namespace) -> int:
     except ImportError:
         print(INSTALL_HINT, file=sys.stderr)
         return 2
-    from .runner import run_batch
-    from .spec import load_spec
+    from ..batch.runner import run_batch
+    from ..batch.spec import load_spec
 
     if args.workers is not None and args.workers < 1:
         print(f"error: --workers must be at least 1, not {args.workers}", file=sys.stderr)
