@@ -179,8 +179,12 @@ def test_bad_inputs_name_the_file_and_the_thing(tmp_path):
     short = tmp_path / "grf.mot"
     text = grf.read_text().splitlines()
     short.write_text("\n".join([s for s in text[:7] if not s.startswith("nRows")] + text[7:700]) + "\n")
-    with pytest.raises(GaitError, match=r"time ranges do not match: .*grf\.mot covers 0 \.\.\. 1\.1533 s but the motion window .*ik\.mot needs 0\.4"):
-        run_inverse_dynamics(model, G / "subject01_walk1_ik.mot", short)
+    # forces that end before the motion: the overlap is used (issue 15); a window past it is refused
+    assert run_inverse_dynamics(model, G / "subject01_walk1_ik.mot", short).t[-1] == pytest.approx(1.15, abs=1e-6)
+    with pytest.raises(GaitError, match=r"window 0\.4 \.\.\. 1\.6 s is not inside the time both files cover "
+                                        r"\(0\.4 \.\.\. 1\.1533 s\): the motion .*ik\.mot covers 0\.4 \.\.\. 1\.6 s, "
+                                        r"the ground reactions .*grf\.mot cover 0 \.\.\. 1\.1533 s"):
+        run_inverse_dynamics(model, G / "subject01_walk1_ik.mot", short, start=0.4, end=1.6)
     with pytest.raises(GaitError, match="window 0.2 ... 1 s is not inside"):
         run_inverse_dynamics(model, G / "subject01_walk1_ik.mot", grf, start=0.2, end=1.0)
     # move the left plate's centre of pressure 2 m sideways: nobody stands there

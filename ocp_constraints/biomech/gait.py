@@ -34,7 +34,7 @@ the 23 generalized forces agrees to 0.01 N m (``tests/test_gait.py``).
 from __future__ import annotations
 
 import time
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import casadi as ca
 import numpy as np
@@ -44,7 +44,7 @@ from ..errors import OcpConstraintsError
 from .gait_feet import Leg, assign_plates, find_legs
 from .gait_model import JointInfo, constraint_model
 from ..errors import GaitError
-from .gait_signals import filter_coordinates
+from .gait_signals import check_cutoff, filter_coordinates, motion_units
 from ..dynamics.inverse import InverseDynamics
 from ..mechanics.model import Model
 from .opensim_files import Plate, Table, grf_plates, read_grf, read_motion
@@ -81,6 +81,7 @@ class GaitResult:
     model: Model
     eqs: SystemEquations
     states: dict[str, np.ndarray]
+    settings: dict = field(default_factory=dict)   # filter, timing and unit decisions (summary.json)
 
     def generalized_force(self, coordinate: str) -> np.ndarray:
         if coordinate not in self.coordinate_names:
@@ -104,39 +105,93 @@ def _check_columns(osim: OsimModel, motion: Table) -> list[str]:
     return names
 
 
-def _window(motion: Table, grf: Table, start, end, times) -> np.ndarray:
-    t0 = motion.time[0] if start is None else float(start)
-    t1 = motion.time[-1] if end is None else float(end)
+def _gap_check(table: Table, what: str, lo: float, hi: float) -> None:
+    """A step of more than 3 median steps inside ``lo ... hi`` is a gap in the record: a clear error."""
+    t = table.time
+    steps = np.diff(t)
+    dt = float(np.median(steps))
+    inside = (t[1:] > lo) & (t[:-1] < hi)
+    big = np.flatnonzero(inside & (steps > 3.0 * dt))
+    if big.size:
+        i = int(big[0])
+        raise GaitError(f"{table.path}: the {what} record has a gap from {t[i]:g} to {t[i + 1]:g} s "
+                        f"({steps[i]:g} s, the sample period is {dt:g} s) inside the window {lo:g} ... {hi:g} s")
+
+
+def _window(motion: Table, grf: Table, start, end, times) -> tuple[np.ndarray, dict]:
+    """Sample times, and what was done about the files' time ranges (recorded in summary.json).
+
+    Files of one trial share a clock but may round it differently (one trial's force file
+    starts at 1.39833 s, its motion file at 1.3983 s). Differences below half a sample
+    period of the motion are accepted (the ground reactions are held at their end values
+    over that sliver); otherwise the overlap of the two ranges is used. Only a window
+    outside the overlap, or a gap inside a record, is an error, and it names both ranges.
+    """
     dt = float(np.median(np.diff(motion.time)))
-    if not (motion.time[0] - 1e-9 <= t0 < t1 <= motion.time[-1] + 1e-9):
-        raise GaitError(f"{motion.path}: covers {motion.time[0]:g} ... {motion.time[-1]:g} s; the requested "
-                        f"window {t0:g} ... {t1:g} s is not inside it")
+    tol = 0.5 * dt
+    m0, m1, g0, g1 = float(motion.time[0]), float(motion.time[-1]), float(grf.time[0]), float(grf.time[-1])
+    lo, hi = max(m0, g0), min(m1, g1)
+    ranges = (f"the motion {motion.path} covers {m0:g} ... {m1:g} s, the ground reactions {grf.path} "
+              f"cover {g0:g} ... {g1:g} s")
+    if hi - lo < dt - 1e-12:
+        raise GaitError(f"time ranges do not overlap: {ranges}")
+    t0 = lo if start is None else float(start)
+    t1 = hi if end is None else float(end)
+    if not t0 < t1:
+        raise GaitError(f"the requested window {t0:g} ... {t1:g} s is empty (start must be before end)")
+    if t0 < lo - tol or t1 > hi + tol:
+        raise GaitError(f"the requested window {t0:g} ... {t1:g} s is not inside the time both files cover "
+                        f"({lo:g} ... {hi:g} s): {ranges}")
     if times is None:
-        times = motion.time[(motion.time >= t0 - 1e-9) & (motion.time <= t1 + 1e-9)]
+        times = motion.time[(motion.time >= t0 - tol) & (motion.time <= t1 + tol)]
     times = np.asarray(times, float)
-    if times.min() < motion.time[0] - 1.01 * dt or times.max() > motion.time[-1] + 1.01 * dt:
-        raise GaitError(f"{motion.path}: times {times.min():g} ... {times.max():g} s fall outside the motion")
-    if times.min() < grf.time[0] - 1e-9 or times.max() > grf.time[-1] + 1e-9:
-        raise GaitError(f"time ranges do not match: {grf.path} covers {grf.time[0]:g} ... {grf.time[-1]:g} s "
-                        f"but the motion window {motion.path} needs {times.min():g} ... {times.max():g} s")
-    return times
+    if times.size == 0 or times.min() < lo - tol or times.max() > hi + tol:
+        span = "no times" if times.size == 0 else f"times {times.min():g} ... {times.max():g} s"
+        raise GaitError(f"time ranges do not match: {span} requested, but both files cover only "
+                        f"{lo:g} ... {hi:g} s ({ranges})")
+    _gap_check(motion, "motion", float(times.min()), float(times.max()))
+    _gap_check(grf, "ground-reaction", float(times.min()), float(times.max()))
+    notes = []
+    for edge, a, b in (("starts", m0, g0), ("ends", m1, g1)):
+        d = a - b
+        if 0 < abs(d) < tol:
+            held = (d < 0) == (edge == "starts")      # the motion reaches past the ground reactions
+            notes.append(f"the motion {edge} {abs(d):.3g} s {'before' if d < 0 else 'after'} the ground reactions "
+                         f"(below half a sample period, {tol:.3g} s): accepted as the same instant"
+                         + ("; the ground reactions are held at their "
+                            + ("first" if edge == "starts" else "last") + " value over it" if held else ""))
+        elif (d <= -tol) == (edge == "starts") and abs(d) >= tol:     # motion samples outside the forces
+            notes.append(f"the motion {edge} at {a:g} s, the ground reactions at {b:g} s: only their overlap is used")
+    info = {"motion_s": [m0, m1], "ground_reactions_s": [g0, g1], "used_s": [float(times.min()), float(times.max())],
+            "samples": int(times.size), "tolerance_s": tol,
+            "rule": "time stamps that differ by less than half a motion sample period are the same instant; "
+                    "the overlap of the files' time ranges is used",
+            "notes": notes}
+    return times, info
 
 
 def run_inverse_dynamics(model_path, motion_path, grf_path, start: float | None = None, end: float | None = None,
-                         cutoff: float | None = 6.0, times=None) -> GaitResult:
+                         cutoff: float | None = 6.0, times=None, select=None) -> GaitResult:
     """Inverse dynamics of a trial from files to joint loads (see the module docstring).
 
     Parameters
     ----------
     model_path, motion_path, grf_path
-        ``.osim`` model, coordinates (IK output, any format of :mod:`opensim_io`),
+        ``.osim`` model, coordinates (IK output, any format of :mod:`.opensim_files`),
         ground reaction forces (one or more plates).
     start, end
         Window (s); default the whole motion.
     cutoff
-        Low-pass cutoff for the coordinates (Hz), OpenSim's default 6; None: no filter.
+        Low-pass cutoff for the coordinates (Hz), OpenSim's default 6; it must lie strictly
+        between 0 and the Nyquist frequency of the motion (:func:`check_cutoff`). None: no
+        filter (only on request: ``gait --no-filter``).
     times
         Sample times (s) to evaluate at (default: the motion's samples in the window).
+    select
+        Optional ``select(plates, grf) -> (t0, t1)``, called once the force plates are given
+        to the feet (``plates``: plate name -> ``"right"``/``"left"``; ``grf`` the force table):
+        only the samples in ``t0 ... t1`` are then solved (the knee's gait cycle), so the
+        inverse dynamics runs once, on those samples only.
     """
     clock = {"start": time.perf_counter()}
     osim = load_osim(model_path)
@@ -144,7 +199,8 @@ def run_inverse_dynamics(model_path, motion_path, grf_path, start: float | None 
     motion = read_motion(motion_path, translational=trans)
     grf = read_grf(grf_path)
     names = _check_columns(osim, motion)
-    t = _window(motion, grf, start, end, times)
+    t, timing = _window(motion, grf, start, end, times)
+    cutoff = check_cutoff(cutoff, motion)
     plates = grf_plates(grf)
     clock["read"] = time.perf_counter()
     model, joints = constraint_model(osim)
@@ -153,6 +209,26 @@ def run_inverse_dynamics(model_path, motion_path, grf_path, start: float | None 
     clock["model"] = time.perf_counter()
 
     splines = filter_coordinates(motion, names, cutoff)
+
+    # force plates -> feet (over the whole window, before any selection of samples)
+    up = -np.asarray(osim.gravity) / np.linalg.norm(osim.gravity)
+    in_window = (grf.time >= t.min() - 1e-9) & (grf.time <= t.max() + 1e-9)
+    tg = grf.time[in_window]
+    pts = ca.SX.sym("p", len(names))
+    X = osim.poses({n: pts[i] for i, n in enumerate(names)})
+    foot_fn = ca.Function("feet", [pts], [ca.vertcat(*[X[legs[s].chain[c]][1] for s in legs for c in (-2, -1)])])
+    Pg = splines(tg)[0]
+    fp = np.asarray(foot_fn.map(len(tg))(Pg.T)).T
+    feet = {s: (fp[:, 6 * i:6 * i + 3], fp[:, 6 * i + 3:6 * i + 6]) for i, s in enumerate(legs)}
+    window_plates = [Plate(p.name, p.force[in_window], p.point[in_window], p.torque[in_window], p.columns) for p in plates]
+    assigned = assign_plates(window_plates, feet, up, str(grf.path))
+    if select is not None:          # e.g. the knee's gait cycle, found from the plates of one foot
+        lo, hi = select(assigned, grf)
+        t = t[(t >= lo - 1e-9) & (t <= hi + 1e-9)]
+        if len(t) < 2:
+            raise GaitError(f"{motion_path}: fewer than two motion samples in the selected window {lo:g} ... {hi:g} s")
+        timing.update(selected_s=[float(lo), float(hi)], used_s=[float(t[0]), float(t[-1])], samples=int(len(t)))
+
     P, Pd, Pdd = splines(t)
     bodies = list(model.bodies)
     N, nb = len(t), len(bodies)
@@ -168,19 +244,6 @@ def run_inverse_dynamics(model_path, motion_path, grf_path, start: float | None 
         u[:, 6 * k:6 * k + 3], u[:, 6 * k + 3:6 * k + 6] = vbar[3 * k:3 * k + 3].T, w[3 * k:3 * k + 3].T
         ud[:, 6 * k:6 * k + 3], ud[:, 6 * k + 3:6 * k + 6] = abar[3 * k:3 * k + 3].T, alpha[3 * k:3 * k + 3].T
     clock["kinematics"] = time.perf_counter()
-
-    # force plates -> feet
-    up = -np.asarray(osim.gravity) / np.linalg.norm(osim.gravity)
-    in_window = (grf.time >= t.min() - 1e-9) & (grf.time <= t.max() + 1e-9)
-    tg = grf.time[in_window]
-    pts = ca.SX.sym("p", len(names))
-    X = osim.poses({n: pts[i] for i, n in enumerate(names)})
-    foot_fn = ca.Function("feet", [pts], [ca.vertcat(*[X[legs[s].chain[c]][1] for s in legs for c in (-2, -1)])])
-    Pg = splines(tg)[0]
-    fp = np.asarray(foot_fn.map(len(tg))(Pg.T)).T
-    feet = {s: (fp[:, 6 * i:6 * i + 3], fp[:, 6 * i + 3:6 * i + 6]) for i, s in enumerate(legs)}
-    window_plates = [Plate(p.name, p.force[in_window], p.point[in_window], p.torque[in_window], p.columns) for p in plates]
-    assigned = assign_plates(window_plates, feet, up, str(grf.path))
     fext = np.zeros((N, 6 * nb))
     for pl in plates:
         if pl.name not in assigned:
@@ -217,7 +280,8 @@ def run_inverse_dynamics(model_path, motion_path, grf_path, start: float | None 
     timings["total"] = clock["loads"] - clock["start"]
     return GaitResult(t, names, gen, lam, tau, residual, loads, joints, legs, assigned, timings,
                       list(getattr(model, "warnings", [])), osim, model, eqs,
-                      {"q": q, "u": u, "udot": ud, "p": P, "pdot": Pd, "pddot": Pdd, "J": Js, "fext": fext})
+                      {"q": q, "u": u, "udot": ud, "p": P, "pdot": Pd, "pddot": Pdd, "J": Js, "fext": fext},
+                      settings={"filter": splines.settings, "timing": timing, "angles": motion_units(motion)})
 
 
 def joint_load_columns(eqs: SystemEquations, q, u, t, lam) -> dict[str, np.ndarray]:

@@ -27,7 +27,8 @@ def write_gait_results(result: GaitResult, out, side: str = "right", plots: bool
     summary = {
         "task": "gait inverse dynamics", "model": result.osim.path, "inputs": inputs or {},
         "side": side, "samples": len(result.t), "t_start": float(result.t[0]), "t_end": float(result.t[-1]),
-        "filter": {"coordinates": "OpenSim ID tool: reflect-pad, 3rd-order Butterworth forward+backward, quintic splines"},
+        "filter": result.settings.get("filter"), "timing": result.settings.get("timing"),
+        "angles": result.settings.get("angles"),
         "plates": result.plates, "feet": {s: l.foot for s, l in result.legs.items()},
         "leg_joints": {j: {"constraints": result.joints[j].constraints, "inputs": result.joints[j].inputs,
                            "parent": result.joints[j].parent, "child": result.joints[j].child} for j in leg},

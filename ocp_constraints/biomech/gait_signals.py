@@ -9,16 +9,44 @@ from dataclasses import dataclass
 import numpy as np
 from scipy.interpolate import make_interp_spline
 
+from ..errors import GaitError
 from .opensim_files import Table
+
+FILTER_TEXT = ("Butterworth low-pass, 3rd order, run forward and backward (zero phase; OpenSim's "
+               "Signal::LowpassIIR), after padding each column by odd reflection over half its length")
+
+
+def check_cutoff(cutoff: float | None, motion: Table) -> float | None:
+    """The low-pass cutoff (Hz) if it is usable: finite and strictly between 0 and the Nyquist
+    frequency ``1 / (2 dt)`` of the motion (``dt`` its median sample period). ``None`` means no
+    filter (asked for explicitly). Anything else is a :class:`GaitError` that says what to use."""
+    if cutoff is None:
+        return None
+    dt = float(np.median(np.diff(motion.time)))
+    nyquist = 0.5 / dt
+    fc = float(cutoff)
+    if not np.isfinite(fc) or fc <= 0.0:
+        raise GaitError(f"cutoff {cutoff!r} Hz is not a positive frequency: give 0 < cutoff < {nyquist:.4g} Hz "
+                        "(the Nyquist frequency of the motion), or --no-filter to use the coordinates unfiltered")
+    if fc >= nyquist:
+        raise GaitError(f"cutoff {fc:g} Hz is at or above the Nyquist frequency {nyquist:.4g} Hz of the motion "
+                        f"{motion.path} (sampled at {1.0 / dt:.4g} Hz): a low-pass filter cannot act there; "
+                        f"give a cutoff below {nyquist:.4g} Hz (OpenSim's default is 6 Hz), or --no-filter")
+    return fc
+
+
+def motion_units(motion: Table) -> dict:
+    """How the motion's angles were read (header, extension or range; see :func:`read_motion`)."""
+    keys = ("angles_converted_from_degrees", "in_degrees_source", "angle_unit_note")
+    return {k: motion.metadata[k] for k in keys if k in motion.metadata}
 
 
 # -- 2. coordinates: OpenSim's filter and spline ------------------------------------------------
 
 def _opensim_iir(y: np.ndarray, dt: float, fc: float) -> np.ndarray:
     """OpenSim ``Signal::LowpassIIR``: 3rd-order Butterworth, forward then backward (zero phase)."""
-    fs = 1.0 / dt
-    if fc >= 0.5 * fs:
-        fc = 0.49 * fs
+    if not 0.0 < fc < 0.5 / dt:        # check_cutoff refuses these before; never clamp silently
+        raise GaitError(f"cutoff {fc:g} Hz is not below the Nyquist frequency {0.5 / dt:.4g} Hz of the resampled motion")
     wa = np.tan(2 * np.pi * fc * dt / 2.0)
     wa2, wa3 = wa * wa, wa ** 3
     den = (wa + 1) * (wa2 + wa + 1.0)
@@ -50,6 +78,7 @@ class CoordinateSplines:
     names: list[str]
     splines: object
     t_range: tuple[float, float]
+    settings: dict = None
 
     def __call__(self, t) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         t = np.atleast_1d(np.asarray(t, float))
@@ -65,6 +94,14 @@ def filter_coordinates(table: Table, names: list[str], cutoff: float | None = 6.
     """
     t = table.time
     Y = np.column_stack([table.column(n) for n in names])
+    dt_m = float(np.median(np.diff(t)))
+    settings = {"coordinates": {"applied": cutoff is not None, "cutoff_hz": cutoff,
+                                "motion_sampling_hz": 1.0 / dt_m, "nyquist_hz": 0.5 / dt_m,
+                                "filter": FILTER_TEXT if cutoff is not None else "none (--no-filter)",
+                                "resampled_step_s": None,
+                                "splines": "interpolating quintic splines through the (filtered) samples, "
+                                           "differentiated twice for speeds and accelerations"},
+                "ground_reactions": "not filtered: linear interpolation at the motion's sample times"}
     if cutoff is not None:
         n = len(t) // 2
         tp = _pad(t, n)
@@ -74,8 +111,9 @@ def filter_coordinates(table: Table, names: list[str], cutoff: float | None = 6.
             tn = tp[0] + dt * np.arange(int(np.floor((tp[-1] - tp[0]) / dt + 1e-9)) + 1)
             Yp = make_interp_spline(tp, Yp, k=5, axis=0)(tn)
             tp = tn
+            settings["coordinates"]["resampled_step_s"] = dt
         Yf = np.column_stack([_opensim_iir(Yp[:, k], dt, cutoff) for k in range(Y.shape[1])])
         t, Y = tp, Yf
-    return CoordinateSplines(names, make_interp_spline(t, Y, k=5, axis=0), (table.time[0], table.time[-1]))
+    return CoordinateSplines(names, make_interp_spline(t, Y, k=5, axis=0), (table.time[0], table.time[-1]), settings)
 
 

@@ -23,11 +23,12 @@ from ..errors import KneeError
 LBF = 4.4482216153
 
 
-def gait_cycle(grf_path, plates_of_right: list[str]) -> tuple[float, float]:
-    """First two right-foot contact onsets (s)."""
-    from .opensim_files import grf_plates, read_grf
+def gait_cycle(grf, plates_of_right: list[str], name=None) -> tuple[float, float]:
+    """First two right-foot contact onsets (s) in a force table (or file) ``grf``."""
+    from .opensim_files import Table, grf_plates, read_grf
 
-    grf = read_grf(grf_path)
+    grf_path = name if name is not None else getattr(grf, "path", grf)
+    grf = grf if isinstance(grf, Table) else read_grf(grf)
     onsets = []
     for pl in grf_plates(grf):
         if pl.name in plates_of_right:
@@ -75,7 +76,7 @@ METHODS = ("static", "collocation")
 
 
 def run_knee(model, motion, grf, measured=None, muscles_on: bool = True, muscle_model: str = "ideal",
-             method: str = "static"):
+             method: str = "static", cutoff: float | None = 6.0, implant_meshes=None, build_model_data: bool = True):
     """Gait cycle -> inverse dynamics -> static optimisation or collocation (-> comparison). Returns a dict.
 
     ``method``: ``"static"`` (per-frame static optimisation, :mod:`.knee_static`) or
@@ -85,6 +86,12 @@ def run_knee(model, motion, grf, measured=None, muscles_on: bool = True, muscle_
     al. 2016 force-length-velocity curves, rigid tendon, :mod:`.knee_hill`; experimental: with
     a rigid tendon the quadriceps' passive forces reach 0.5-1 kN at zero activation in swing,
     which a subject who bends the knee in swing cannot have).
+
+    The muscle-path fits and the implant geometry are those of the model *file*
+    (:func:`.knee_model_data.knee_model_data`: by its SHA-256; built for a new model when
+    OpenSim is installed and ``implant_meshes`` given, refused otherwise). The inverse
+    dynamics runs once, on the samples of the right gait cycle only (the cycle is found from
+    the plates that the inverse dynamics gives to the right foot).
     """
     if muscle_model not in MUSCLE_MODELS:
         raise KneeError(f"unknown muscle model '{muscle_model}' (use one of {', '.join(MUSCLE_MODELS)})")
@@ -95,25 +102,24 @@ def run_knee(model, motion, grf, measured=None, muscles_on: bool = True, muscle_
     else:
         solve = solve_static
     from .gait import run_inverse_dynamics
+    from .knee_model import default_parameters
+    from .knee_model_data import knee_model_data
     from .knee_muscles import MusclePaths, muscle_parameters
-    from .opensim_files import read_motion
-    from .osim_model import load_osim
 
     clock = time.perf_counter()
-    from .opensim_files import read_grf
+    data = knee_model_data(model, implant_meshes, build=build_model_data)
+    cycle = {}
 
-    g_time = read_grf(grf).time
-    first = run_inverse_dynamics(model, motion, grf, start=max(g_time[0], read_motion(motion).time[0]),
-                                 end=min(g_time[-1], read_motion(motion).time[-1]))
-    right = [p for p, s in first.plates.items() if s == "right"]
-    t0, t1 = gait_cycle(grf, right)
-    mt = first.t
-    times = mt[(mt >= t0 - 1e-9) & (mt <= t1 + 1e-9)]
-    gait = run_inverse_dynamics(model, motion, grf, times=times)
-    paths = MusclePaths()
+    def right_cycle(plates, grf_table):
+        cycle["t"] = gait_cycle(grf_table, [p for p, s in plates.items() if s == "right"], grf)
+        return cycle["t"]
+
+    gait = run_inverse_dynamics(model, motion, grf, cutoff=cutoff, select=right_cycle)
+    t0, t1 = cycle["t"]
+    paths = MusclePaths(data.muscle_paths)
     params = muscle_parameters(model, paths.muscles)
     F0 = np.array([params[m].max_isometric_force for m in paths.muscles])
-    Qc, R, A = frame_data(gait, paths, contact_matrix_function())
+    Qc, R, A = frame_data(gait, paths, contact_matrix_function({**default_parameters(), **data.geometry}))
     hill = None
     if muscle_model == "hill":
         from .knee_hill import hill_forces, scale_lengths
@@ -130,10 +136,9 @@ def run_knee(model, motion, grf, measured=None, muscles_on: bool = True, muscle_
     else:
         res = solve(gait.t, Qc, R, A, F0, muscles_on=muscles_on)
     res.muscles = paths.muscles
-    osim = load_osim(model)
-    bw = sum(b.mass for b in osim.bodies.values()) * float(np.linalg.norm(osim.gravity))
+    bw = sum(b.mass for b in gait.osim.bodies.values()) * float(np.linalg.norm(gait.osim.gravity))
     out = {"result": res, "gait": gait, "cycle": (t0, t1), "bw": bw, "F0": F0, "hill": hill, "muscle_model": muscle_model,
-           "method": method, "wall_total": time.perf_counter() - clock}
+           "method": method, "model_data": data, "wall_total": time.perf_counter() - clock}
     if measured is not None:
         meas = read_measured(measured)
         out["measured"] = meas
@@ -165,7 +170,11 @@ def write_knee_results(run: dict, out, plots: bool = True, inputs: dict | None =
                "gait_cycle_s": list(run["cycle"]), "frames": len(r.t), "body_weight_N": run["bw"],
                "solver": {"nlp": "all frames in one NLP, IPOPT (casadi.nlpsol)", "status": r.status,
                           "max_equation_residual": r.residual},
-               "wall_time_s": {**r.timings, "total": run["wall_total"]},
+               "wall_time_s": {**r.timings, "inverse_dynamics": run["gait"].timings.get("total"),
+                               "total": run["wall_total"]},
+               "filter": run["gait"].settings.get("filter"), "timing": run["gait"].settings.get("timing"),
+               "angles": run["gait"].settings.get("angles"),
+               "model_data": run["model_data"].summary() if run.get("model_data") else None,
                "muscle_model": _muscle_model_text(run),
                "peak_reserve_Nm": {c: float(np.abs(r.reserve[:, i]).max()) for i, c in enumerate(RESERVED)},
                "peak_bw": {"medial": float(r.medial.max() / run["bw"]), "lateral": float(r.lateral.max() / run["bw"]),
@@ -194,7 +203,9 @@ def write_knee_results(run: dict, out, plots: bool = True, inputs: dict | None =
 
 
 def _muscle_model_text(run) -> dict:
-    paths = "muscle-tendon lengths fitted to OpenSim's paths (ocp_constraints/biomech/data/jw_knee_muscle_paths.json)"
+    data = run.get("model_data")
+    paths = ("muscle-tendon lengths fitted to OpenSim's paths of this model file "
+             f"({data.muscle_paths if data else 'ocp_constraints/biomech/data/jw_knee_muscle_paths.json'})")
     if run.get("muscle_model", "ideal") == "ideal":
         return {"name": "ideal", "tension": "F = a F0 (max_isometric_force from the model)", "paths": paths}
     h, r = run["hill"], run["result"]

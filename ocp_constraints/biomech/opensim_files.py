@@ -27,6 +27,7 @@ from pathlib import Path
 import numpy as np
 
 from ..errors import DataFileError
+from .angle_units import angle_unit
 
 #: Pound-force to newton (exact by definition of the lbf).
 LBF_TO_N = 4.4482216152605
@@ -164,15 +165,25 @@ def _parse_mat(path: Path) -> tuple[list[str], np.ndarray, dict[str, str], int]:
 
     try:
         mat = scipy.io.loadmat(str(path), squeeze_me=True, struct_as_record=False)
-    except (OSError, ValueError, TypeError) as exc:
-        raise DataFileError(path, f"is not a readable MATLAB file: {exc}") from exc
+    except NotImplementedError as exc:   # MATLAB v7.3 (HDF5)
+        raise DataFileError(path, f"is a MATLAB v7.3 (HDF5) file, which this reader does not read ({exc}); save it "
+                                  "with save(..., '-v7') or export it as .csv") from exc
+    except Exception as exc:  # noqa: BLE001 - scipy raises many types for a damaged file (MatReadError, zlib, ...)
+        raise DataFileError(path, f"is not a readable MATLAB file ({type(exc).__name__}: {exc or 'no detail'}): "
+                                  "damaged, truncated or not a .mat file; save it again from MATLAB (-v7) or "
+                                  "export it as .csv") from exc
     structs = [(k, v) for k, v in mat.items() if not k.startswith("__") and hasattr(v, "_fieldnames")]
     good = [(k, v) for k, v in structs if {"data", "colheaders"} <= set(v._fieldnames)]
     if not good:
         raise DataFileError(path, "holds no struct with fields 'data' and 'colheaders'")
     key, s = good[0]
     names = [str(n) for n in np.atleast_1d(s.colheaders)]
-    data = np.atleast_2d(np.asarray(s.data, dtype=float))
+    try:
+        data = np.atleast_2d(np.asarray(s.data, dtype=float))
+    except (TypeError, ValueError) as exc:
+        raise DataFileError(path, f"struct '{key}': field 'data' is not a numeric matrix ({exc})") from exc
+    if data.ndim != 2:
+        raise DataFileError(path, f"struct '{key}': field 'data' must be a 2-D matrix, got shape {data.shape}")
     if data.shape[1] != len(names):
         raise DataFileError(path, f"struct '{key}': data has {data.shape[1]} columns, colheaders {len(names)}")
     header = {"struct": key}
@@ -223,16 +234,6 @@ def _split_time(p: Path, names, data, label_line: int) -> tuple[np.ndarray, dict
     return t, {n: data[:, i] for i, n in enumerate(names) if i != tcol}
 
 
-def _in_degrees(header: dict[str, str], override: bool | None) -> tuple[bool, str]:
-    if override is not None:
-        return override, "given by the caller"
-    if "inDegrees" in header:
-        return header["inDegrees"].strip().lower() in ("yes", "true", "1"), "header inDegrees"
-    if "datacolumns" in header or "datarows" in header:
-        return True, "SIMM header (SIMM motions are in degrees)"
-    return False, "no inDegrees in header: assumed radians"
-
-
 def is_translation_name(name: str) -> bool:
     """True for OpenSim's translational coordinate names (``pelvis_tx``, ``knee_ty_l``...).
 
@@ -261,11 +262,10 @@ def read_motion(path, in_degrees: bool | None = None, translational=None) -> Tab
         ``_tx``, ``_ty``, ``_tz`` (optionally followed by ``_l``/``_r``).
     """
     p, names, data, header, label_line = _parse(path)
-    if p.suffix.lower() in (".csv", ".mat") and in_degrees is None and "inDegrees" not in header:
-        in_degrees = True  # the JW IK exports (SOURCE.md): rotations in degrees
     t, cols = _split_time(p, names, data, label_line)
-    deg, why = _in_degrees(header, in_degrees)
     is_trans = (lambda n: n in set(translational)) if translational is not None else is_translation_name
+    angles = {n: v for n, v in cols.items() if not is_trans(n) and not n.rstrip("/").endswith("/speed")}
+    deg, why, note = angle_unit(p, header, angles, in_degrees)
     units = {}
     for n in cols:
         if is_trans(n):
@@ -275,6 +275,8 @@ def read_motion(path, in_degrees: bool | None = None, translational=None) -> Tab
             if deg:
                 cols[n] = np.deg2rad(cols[n])
     meta = dict(header, angles_converted_from_degrees=str(deg), in_degrees_source=why)
+    if note:
+        meta["angle_unit_note"] = note
     return Table(str(p), t, cols, units, meta)
 
 

@@ -15,7 +15,10 @@ def add_gait_parser(subparsers) -> None:
     g.add_argument("--side", choices=("right", "left"), default="right", help="leg whose joints are reported")
     g.add_argument("--start", type=float, default=None, help="first time [s] (default: start of the motion)")
     g.add_argument("--end", type=float, default=None, help="last time [s] (default: end of the motion)")
-    g.add_argument("--cutoff", type=float, default=6.0, help="low-pass cutoff of the coordinates [Hz] (default 6)")
+    f = g.add_mutually_exclusive_group()
+    f.add_argument("--cutoff", type=float, default=6.0,
+                   help="low-pass cutoff of the coordinates [Hz], 0 < cutoff < the motion's Nyquist frequency (default 6)")
+    f.add_argument("--no-filter", action="store_true", help="use the coordinates unfiltered (no low-pass)")
     g.add_argument("--out", required=True, help="folder for summary.json, loads.csv and plots")
     g.add_argument("--no-plots", action="store_true", help="write no PNG plots")
     g.set_defaults(handler=cli_gait)
@@ -27,13 +30,17 @@ def cli_gait(args) -> int:
     from ..biomech.gait_report import write_gait_results
 
     try:
-        result = run_inverse_dynamics(args.model, args.motion, args.grf, args.start, args.end,
-                                      args.cutoff if args.cutoff and args.cutoff > 0 else None)
+        cutoff = None if getattr(args, "no_filter", False) else args.cutoff
+        result = run_inverse_dynamics(args.model, args.motion, args.grf, args.start, args.end, cutoff)
         summary = write_gait_results(result, args.out, args.side, plots=not getattr(args, "no_plots", False),
-                                     inputs={"model": args.model, "motion": args.motion, "grf": args.grf})
+                                     inputs={"model": args.model, "motion": args.motion, "grf": args.grf,
+                                             "cutoff_hz": cutoff, "no_filter": cutoff is None})
     except OcpConstraintsError as exc:
         print(f"error: {exc}", file=sys.stderr)
         return 2
+    for note in (summary.get("timing") or {}).get("notes", []) + [v for k, v in (summary.get("angles") or {}).items()
+                                                                   if k == "angle_unit_note"]:
+        print(f"note: {note}", file=sys.stderr)
     print(f"gait: {summary['samples']} samples {summary['t_start']:g} ... {summary['t_end']:g} s, "
           f"plates {summary['plates']}, inverse dynamics in {result.timings['total']:.2f} s; results in {args.out}")
     return 0

@@ -19,6 +19,13 @@ def add_knee_parser(subparsers) -> None:
     k.add_argument("--muscle-model", choices=MUSCLE_MODELS, default="ideal",
                    help="ideal: F = a F0 (default); hill: De Groote et al. 2016 force-length-velocity curves "
                         "with a rigid tendon (experimental: its passive quadriceps forces are unphysical in swing)")
+    f = k.add_mutually_exclusive_group()
+    f.add_argument("--cutoff", type=float, default=6.0,
+                   help="low-pass cutoff of the coordinates [Hz], 0 < cutoff < the motion's Nyquist frequency (default 6)")
+    f.add_argument("--no-filter", action="store_true", help="use the coordinates unfiltered (no low-pass)")
+    k.add_argument("--implant-meshes", default=None,
+                   help="folder with the implant's contact meshes (femPoints_188.csv, tibPoints_100.csv, "
+                        "facesTib1_100.csv, facesTib2_100.csv): needed once for a model other than the JW model")
     k.add_argument("--out", required=True, help="folder for summary.json, loads.csv and plots")
     k.add_argument("--no-plots", action="store_true", help="write no PNG plots")
     k.set_defaults(handler=cli_knee)
@@ -29,15 +36,19 @@ def cli_knee(args) -> int:
     from ..biomech.knee_pipeline import run_knee, write_knee_results
 
     try:
+        cutoff = None if getattr(args, "no_filter", False) else getattr(args, "cutoff", 6.0)
         run = run_knee(args.model, args.motion, args.grf, args.measured, muscle_model=args.muscle_model,
-                       method=args.method)
+                       method=args.method, cutoff=cutoff, implant_meshes=getattr(args, "implant_meshes", None))
         summary = write_knee_results(run, args.out, plots=not args.no_plots,
                                      inputs={"model": str(args.model), "motion": str(args.motion), "grf": str(args.grf),
                                              "measured": None if args.measured is None else str(args.measured),
-                                             "method": args.method, "muscle_model": args.muscle_model})
+                                             "method": args.method, "muscle_model": args.muscle_model,
+                                             "cutoff_hz": cutoff, "no_filter": cutoff is None})
     except OcpConstraintsError as exc:
         print(f"error: {exc}", file=sys.stderr)
         return 2
+    for note in (summary.get("timing") or {}).get("notes", []):
+        print(f"note: {note}", file=sys.stderr)
     w = summary["wall_time_s"]
     print(f"knee: cycle {summary['gait_cycle_s'][0]:g}-{summary['gait_cycle_s'][1]:g} s, {summary['frames']} frames, "
           f"{METHOD_TEXT[args.method]} {w['build'] + w['solve']:.2f} s; results in {args.out}")

@@ -1,7 +1,8 @@
-"""OpenSim side of the knee muscle-path preprocessing (run by scripts/knee_muscle_fits.py).
+"""OpenSim side of the knee muscle-path preprocessing (run by :mod:`.knee_model_data`).
 
-Runs in its own process (the ``opensim`` wheel and ``casadi`` clash in one process).
-Loads the JW model, samples muscle-tendon lengths of the right-leg muscles over the
+Runs in its own process, ``python -m ocp_constraints.biomech.knee_paths_opensim MODEL OUT
+[n] [seed]`` (the ``opensim`` wheel and ``casadi`` clash in one process; this module imports
+neither CasADi nor the rest of the package). Loads a JW-type model, samples muscle-tendon lengths of the right-leg muscles over the
 range of motion (OpenSim's own path computation: path points, conditional points and
 wrap objects) and sweeps OpenSim's moment arms over knee angles.
 
@@ -12,7 +13,7 @@ ligament). Their muscle-tendon units, to which ``optimal_fiber_length`` and
 ``<name>_withreallength`` (same origin and parameters, no patellar-ligament segment). The
 twins' lengths are sampled at the same poses (``unit_lengths``, ``unit_spans``).
 
-Usage: python knee_muscle_paths_opensim.py MODEL.osim OUT.json [n_samples] [seed]
+A model without the coordinates sampled below exits with status 3 and a message naming them.
 """
 import json
 import sys
@@ -24,7 +25,7 @@ PRIMARY = {  # coordinate: sampled range (rad); gait range of ngait_og5 plus a m
     "hip_flexion": (-0.85, 0.60), "hip_adduction": (-0.30, 0.30), "hip_rotation": (-0.55, 0.15),
     "knee_flexion": (-1.40, 0.20), "ankle_angle": (-0.45, 0.45), "subtalar_angle": (-0.30, 0.30)}
 SECONDARY = {"knee_adduction": 0.05, "knee_rotation": 0.05, "knee_tx": 0.003, "knee_ty": 0.003, "knee_tz": 0.003}
-KNEE_TY = 0.042            # the JW model's default knee_ty (m); IK holds it there
+KNEE_TY = 0.042            # the JW model's default knee_ty (m); IK holds it there (read from the model)
 PATELLA = ("patfem_flexion", "knee_flexion", 1.57)   # CoordinateCouplerConstraint patfem_flexion_con
 UNIT = "_withreallength"    # recfem/vasint/vaslat/vasmed ending on the patella: their muscle-tendon units (below)
 SKIP = (UNIT,)
@@ -35,6 +36,13 @@ def main(model_path, out_path, n=4000, seed=7):
     model = osim.Model(model_path)
     state = model.initSystem()
     cs = model.getCoordinateSet()
+    missing = [c for c in [*PRIMARY, *SECONDARY, PATELLA[0]] if not cs.contains(c)]
+    if missing:
+        sys.stderr.write(f"{model_path}: no coordinate(s) {missing}: the knee preprocessing needs a JW-type "
+                         "right knee (6-DOF knee with a coupled patella)\n")
+        sys.exit(3)
+    global KNEE_TY
+    KNEE_TY = float(cs.get("knee_ty").getDefaultValue())
     for i in range(cs.getSize()):
         cs.get(i).setLocked(state, False)
     muscles = []
