@@ -46,23 +46,38 @@ from .gait_model import JointInfo, constraint_model
 from ..errors import GaitError
 from .gait_signals import check_cutoff, filter_coordinates, motion_units
 from ..dynamics.inverse import InverseDynamics
+from ..dynamics.result import MechanicalResult
+from ..mechanics.load_columns import load_columns
 from ..mechanics.model import Model
 from .opensim_files import Plate, Table, grf_plates, read_grf, read_motion
 from ..errors import DataFileError
 from .osim_model import OsimModel, load_osim
 from ..mechanics.rotations import quaternion_from_rotation
 
-__all__ = ["GaitError", "GaitResult", "run_inverse_dynamics", "compare", "joint_load_columns"]
+__all__ = ["GaitError", "GaitResult", "run_inverse_dynamics", "compare"]
+
+
+class LoadTable(dict):
+    """DESIGN.md's load columns by name; calling it (``result.loads()``) gives the same dict,
+    the common vocabulary of :mod:`ocp_constraints.dynamics.result`. (Subscripting
+    ``result.loads[...]`` directly is kept for the code written before that vocabulary.)"""
+
+    def __call__(self) -> dict[str, np.ndarray]:
+        return self
 
 
 @dataclass
-class GaitResult:
+class GaitResult(MechanicalResult):
     """Inverse dynamics of a trial.
 
     ``generalized_forces`` (samples x coordinates) are in OpenSim's sense (N m for
     rotational, N for translational coordinates): inputs for free coordinates plus
-    ``sum_k lambda_k A_k`` (eqs. 38-41) for every coordinate. ``loads`` holds DESIGN.md's
-    columns (``<constraint>.lambda``, ``<joint>@<body>.F_x`` ... in the ground frame).
+    ``sum_k lambda_k A_k`` (eqs. 38-41) for every coordinate. ``loads()`` gives DESIGN.md's
+    columns (``<constraint>.lambda``, ``<joint>@<body>.F_x`` ... in the ground frame), from
+    :mod:`ocp_constraints.mechanics.load_columns`. ``sample(name)``: the bodies' coordinates
+    and speeds, multipliers, inputs (named after their free coordinates, N m or N) and the
+    generalized forces ``<coordinate>_moment`` / ``<coordinate>_force`` (the names of
+    loads.csv); ``success``/``status`` those of the inverse-dynamics solve.
     """
 
     t: np.ndarray
@@ -71,7 +86,7 @@ class GaitResult:
     lam: np.ndarray
     tau: np.ndarray
     residual: np.ndarray
-    loads: dict[str, np.ndarray]
+    load_table: LoadTable     # result.loads(): the common vocabulary
     joints: dict[str, JointInfo]
     legs: dict[str, Leg]
     plates: dict[str, str]
@@ -81,7 +96,25 @@ class GaitResult:
     model: Model
     eqs: SystemEquations
     states: dict[str, np.ndarray]
+    status: str = "solved"
+    success: bool = True
     settings: dict = field(default_factory=dict)   # filter, timing and unit decisions (summary.json)
+
+    def mechanical_samples(self):
+        return self.eqs, self.t, self.states["q"], self.states["u"], self.lam, self.tau
+
+    @property
+    def loads(self) -> LoadTable:
+        """DESIGN.md's load columns, computed once by the run; call it: ``result.loads()``."""
+        return self.load_table
+
+    def generalized_force_columns(self) -> dict[str, np.ndarray]:
+        """``<coordinate>_moment`` (N m, rotational) or ``<coordinate>_force`` (N), as in loads.csv."""
+        return {f"{c}{'_moment' if self.osim.coordinates[c].rotational else '_force'}": self.generalized_forces[:, i]
+                for i, c in enumerate(self.coordinate_names)}
+
+    def sample_columns(self) -> dict[str, np.ndarray]:
+        return {**super().sample_columns(), **self.generalized_force_columns()}
 
     def generalized_force(self, coordinate: str) -> np.ndarray:
         if coordinate not in self.coordinate_names:
@@ -270,7 +303,7 @@ def run_inverse_dynamics(model_path, motion_path, grf_path, start: float | None 
     for i, name in enumerate(inputs):
         gen[:, names.index(name)] += tau[:, i]
     clock["solve"] = time.perf_counter()
-    loads = joint_load_columns(eqs, q, u, t, lam)
+    loads = LoadTable(load_columns(eqs, t, q, u, lam))
     clock["loads"] = time.perf_counter()
     steps = ["read", "model", "kinematics", "grf", "solve", "loads"]
     prev, timings = clock["start"], {}
@@ -281,21 +314,8 @@ def run_inverse_dynamics(model_path, motion_path, grf_path, start: float | None 
     return GaitResult(t, names, gen, lam, tau, residual, loads, joints, legs, assigned, timings,
                       list(getattr(model, "warnings", [])), osim, model, eqs,
                       {"q": q, "u": u, "udot": ud, "p": P, "pdot": Pd, "pddot": Pdd, "J": Js, "fext": fext},
+                      status=sol.status, success=sol.success,
                       settings={"filter": splines.settings, "timing": timing, "angles": motion_units(motion)})
-
-
-def joint_load_columns(eqs: SystemEquations, q, u, t, lam) -> dict[str, np.ndarray]:
-    """DESIGN.md load columns: ``<constraint>.lambda``, per joint channel F, M, point, power."""
-    out = {f"{n}.lambda": lam[:, i] for i, n in enumerate(eqs.constraint_names)}
-    L = np.asarray(eqs.loads_function.map(len(t))(q.T, u.T, t, lam.T)).T
-    for c, ch in enumerate(eqs.load_channels):
-        block = L[:, 10 * c:10 * c + 10]
-        for i, a in enumerate("xyz"):
-            out[f"{ch.prefix}.F_{a}"] = block[:, i]
-            out[f"{ch.prefix}.M_{a}"] = block[:, 3 + i]
-            out[f"{ch.prefix}.point_{a}"] = block[:, 6 + i]
-        out[f"{ch.prefix}.power"] = block[:, 9]
-    return out
 
 
 def compare(result: GaitResult, reference: Table, coordinates: list[str]) -> dict[str, dict[str, float]]:

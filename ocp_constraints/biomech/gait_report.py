@@ -18,14 +18,11 @@ def write_gait_results(result: GaitResult, out, side: str = "right", plots: bool
 
     folder = prepare_output_folder(out)
     leg = result.leg_joints(side)
-    cols = {}
-    for i, c in enumerate(result.coordinate_names):
-        suffix = "_moment" if result.osim.coordinates[c].rotational else "_force"
-        cols[f"{c}{suffix}"] = result.generalized_forces[:, i]
-    cols.update(result.loads)
+    cols = {**result.generalized_force_columns(), **result.loads()}
     write_csv(folder / "loads.csv", result.t, cols)
     summary = {
-        "task": "gait inverse dynamics", "model": result.osim.path, "inputs": inputs or {},
+        "task": "gait inverse dynamics", "success": result.success, "status": result.status,
+        "model": result.osim.path, "inputs": inputs or {},
         "side": side, "samples": len(result.t), "t_start": float(result.t[0]), "t_end": float(result.t[-1]),
         "filter": result.settings.get("filter"), "timing": result.settings.get("timing"),
         "angles": result.settings.get("angles"),
@@ -61,11 +58,12 @@ def _plots(result: GaitResult, folder: Path, leg: list[str]) -> list[str]:
         for c in coords:
             axes[0].plot(result.t, result.generalized_force(c), label=c)
         axes[0].set(ylabel="generalized force [N m or N]", title=f"{j}: generalized forces, load on the child at its point")
-        prefix = next((p for p in (f"{j}@{result.joints[j].child}", j) if f"{p}.F_x" in result.loads), None)
+        loads = result.loads()
+        prefix = next((p for p in (f"{j}@{result.joints[j].child}", j) if f"{p}.F_x" in loads), None)
         if prefix:
             for a in "xyz":
-                axes[1].plot(result.t, result.loads[f"{prefix}.F_{a}"], label=f"F_{a}")
-                axes[2].plot(result.t, result.loads[f"{prefix}.M_{a}"], label=f"M_{a}")
+                axes[1].plot(result.t, loads[f"{prefix}.F_{a}"], label=f"F_{a}")
+                axes[2].plot(result.t, loads[f"{prefix}.M_{a}"], label=f"M_{a}")
         axes[1].set(ylabel="constraint force [N]")
         axes[2].set(xlabel="t [s]", ylabel="constraint moment [N m]")
         for ax in axes:

@@ -90,7 +90,6 @@ class CollocationResult(StaticResult):
     excitation: np.ndarray = None
     ode_residual: float = float("nan")
     tau: tuple[float, float] = (TAU_ACT, TAU_DEACT)
-    success: bool = True
 
 
 def ode_defects(t, a, e, tau_act: float = TAU_ACT, tau_deact: float = TAU_DEACT, b: float = SMOOTHING) -> np.ndarray:
@@ -188,4 +187,4 @@ def solve_collocation(t, Qc, R, A, F0, muscles_on: bool = True, contact_nonnegat
     return CollocationResult(t, [], act, act * F0 + passive, Xs[2 * nm:2 * nm + 5].T, Xs[2 * nm + 5:].T,
                              float(np.abs(G[:nr]).max()), status,
                              {"build": built - clock, "solve": done - built}, excitation=exc, ode_residual=ode,
-                             tau=(tau_act, tau_deact), success=True)
+                             tau=(tau_act, tau_deact), success=bool(stats["success"]))

@@ -16,7 +16,7 @@ import numpy as np
 
 from ..errors import OcpConstraintsError
 from .knee_options import METHOD_TEXT, MUSCLE_MODELS
-from .knee_model import CONTACT, contact_matrix_function
+from .knee_model import contact_matrix_function
 from .knee_static import frame_data, solve_static
 from ..errors import KneeError
 
@@ -151,22 +151,12 @@ def write_knee_results(run: dict, out, plots: bool = True, inputs: dict | None =
 
     folder = prepare_output_folder(out)
     r = run["result"]
-    cols = {"N_medial": r.medial, "N_lateral": r.lateral, "N_total": r.total}
-    for j, c in enumerate(CONTACT):
-        cols[f"{c}.lambda"] = r.lam[:, j]
-    for i, m in enumerate(r.muscles):
-        cols[f"{m}.force"] = r.force[:, i]
+    write_csv(folder / "loads.csv", r.t, r.sample_columns())
     from .knee_static import RESERVED
-    for i, c in enumerate(RESERVED):
-        cols[f"reserve_{c}"] = r.reserve[:, i]
-    if getattr(r, "excitation", None) is not None:          # collocation: the muscle states and controls
-        for i, m in enumerate(r.muscles):
-            cols[f"{m}.activation"] = r.activation[:, i]
-            cols[f"{m}.excitation"] = r.excitation[:, i]
-    write_csv(folder / "loads.csv", r.t, cols)
+
     method = run.get("method", "static")
-    summary = {"task": f"knee contact loads, {METHOD_TEXT[method]}", "method": method, "success": True,
-               "inputs": inputs or {},
+    summary = {"task": f"knee contact loads, {METHOD_TEXT[method]}", "method": method, "success": r.success,
+               "status": r.status, "inputs": inputs or {},
                "gait_cycle_s": list(run["cycle"]), "frames": len(r.t), "body_weight_N": run["bw"],
                "solver": {"nlp": "all frames in one NLP, IPOPT (casadi.nlpsol)", "status": r.status,
                           "max_equation_residual": r.residual},

@@ -28,8 +28,10 @@ from dataclasses import dataclass, field
 import casadi as ca
 import numpy as np
 
+from ..dynamics.result import Result
 from ..errors import KneeError
 from .knee_contact import KNEE_COORDINATES
+from .knee_model import CONTACT
 from .knee_muscles import PRIMARY, SECONDARY, MusclePaths
 
 RESERVED = ["hip_flexion", "hip_adduction", "hip_rotation", "knee_flexion", "ankle_angle", "subtalar_angle"]
@@ -37,8 +39,15 @@ RESERVE_WEIGHT = 1.0       # cost of 1 N m of reserve = cost of one fully active
 
 
 @dataclass
-class StaticResult:
-    """Per frame: ``lam`` (frames x 5, N or N m), activations, muscle forces (N), reserves (N m)."""
+class StaticResult(Result):
+    """Per frame: ``lam`` (frames x 5, N or N m), activations, muscle forces (N), reserves (N m).
+
+    The common vocabulary (:mod:`ocp_constraints.dynamics.result`): ``success`` and
+    ``status`` are IPOPT's; ``sample(name)`` over :meth:`sample_columns` (the columns of
+    the knee's loads.csv). It holds multipliers, not joint loads at body states, so
+    ``loads()`` and ``load_about()`` raise a :class:`ModelError` that says so.
+    """
+
 
     t: np.ndarray
     muscles: list[str]
@@ -49,6 +58,22 @@ class StaticResult:
     residual: float
     status: str
     timings: dict[str, float] = field(default_factory=dict)
+    success: bool = True
+
+    def sample_columns(self) -> dict[str, np.ndarray]:
+        """``N_medial``, ``N_lateral``, ``N_total`` (N), ``<constraint>.lambda`` of the knee constraints,
+        ``<muscle>.force`` (N), ``reserve_<coordinate>`` (N m), ``<muscle>.activation`` (and, for
+        collocation, ``<muscle>.excitation``): the knee's loads.csv columns, in their order."""
+        cols = {"N_medial": self.medial, "N_lateral": self.lateral, "N_total": self.total}
+        cols.update({f"{c}.lambda": self.lam[:, j] for j, c in enumerate(CONTACT)})
+        cols.update({f"{m}.force": self.force[:, i] for i, m in enumerate(self.muscles)})
+        cols.update({f"reserve_{c}": self.reserve[:, i] for i, c in enumerate(RESERVED)})
+        excitation = getattr(self, "excitation", None)
+        for i, m in enumerate(self.muscles):
+            cols[f"{m}.activation"] = self.activation[:, i]
+            if excitation is not None:
+                cols[f"{m}.excitation"] = excitation[:, i]
+        return cols
 
     @property
     def medial(self) -> np.ndarray:
@@ -157,4 +182,4 @@ def solve_static(t, Qc, R, A, F0, muscles_on: bool = True, contact_nonnegative: 
         raise KneeError(f"static optimisation failed: IPOPT status '{status}', max equation residual {g:.3g}")
     act = Xs[:nm].T
     return StaticResult(np.asarray(t), [], act, act * F0 + passive, Xs[nm:nm + 5].T, Xs[nm + 5:].T, float(g), status,
-                        {"build": built - clock, "solve": done - built})
+                        {"build": built - clock, "solve": done - built}, success=bool(solver.stats()["success"]))

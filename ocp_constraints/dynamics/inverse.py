@@ -13,7 +13,7 @@ system (redundant constraints, an input that acts like a constraint) is an error
 """
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from functools import cached_property
 
 import casadi as ca
@@ -21,11 +21,19 @@ import numpy as np
 
 from ..mechanics.equations import SystemEquations
 from ..errors import ModelError
+from .result import MechanicalResult
 
 
 @dataclass
-class InverseDynamicsResult:
-    """Multipliers ``lam`` (samples x constraints), inputs (samples x inputs), residuals (N, N m)."""
+class InverseDynamicsResult(MechanicalResult):
+    """Multipliers ``lam`` (samples x constraints), inputs (samples x inputs), residuals (N, N m).
+
+    Keeps the equations and the states (``q``, ``u``, ``udot``, rows are samples) so that
+    it answers the common vocabulary (:mod:`.result`): ``sample(name)``, ``loads()``,
+    ``load_about(joint, point)``. ``success`` is True (a system that does not determine
+    the unknowns raises instead); ``status`` says whether the balances hold exactly
+    (``"solved"``) or in the least-squares sense, with the largest residual.
+    """
 
     t: np.ndarray
     lam: np.ndarray
@@ -33,6 +41,15 @@ class InverseDynamicsResult:
     residual: np.ndarray
     constraint_names: list[str]
     input_names: list[str]
+    eqs: SystemEquations = field(repr=False)
+    q: np.ndarray = field(repr=False)
+    u: np.ndarray = field(repr=False)
+    udot: np.ndarray = field(repr=False)
+    status: str = "solved"
+    success: bool = True
+
+    def mechanical_samples(self):
+        return self.eqs, self.t, self.q, self.u, self.lam, self.inputs
 
     def multiplier(self, name: str) -> np.ndarray:
         if name not in self.constraint_names:
@@ -43,6 +60,9 @@ class InverseDynamicsResult:
         if name not in self.input_names:
             raise ModelError(f"no input '{name}'; inputs: {self.input_names}")
         return self.inputs[:, self.input_names.index(name)]
+
+
+EXACT = 1e-9       # relative residual below which the balances count as solved exactly (status "solved")
 
 
 class InverseDynamics:
@@ -120,7 +140,11 @@ class InverseDynamics:
         else:
             x = np.einsum("nij,nj->ni", np.linalg.pinv(A), b)      # least squares, per sample
         res = np.linalg.norm(np.einsum("nij,nj->ni", A, x) - b, axis=1)
-        return InverseDynamicsResult(t, x[:, : e.nc], x[:, e.nc :], res, e.constraint_names, list(e.model.inputs))
+        worst = float(res.max(initial=0.0))
+        exact = worst <= EXACT * max(1.0, float(np.abs(b).max(initial=0.0)))
+        status = "solved" if exact else f"least squares: largest equation residual {worst:.3g} (N, N m)"
+        return InverseDynamicsResult(t, x[:, : e.nc], x[:, e.nc :], res, e.constraint_names, list(e.model.inputs),
+                                     e, q, u, udot, status)
 
     def solve_coordinates(self, t, q, qdot, qddot, external=None) -> InverseDynamicsResult:
         """Samples of coordinates and their first and second time derivatives (``external``: see :meth:`solve`)."""

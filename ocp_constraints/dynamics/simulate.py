@@ -144,7 +144,7 @@ def simulate(
     # With inputs, CVODES restarts at every sample (the inputs are linear per sample).
     longest = 1 if n_in else max(1, int(round(opts.projection_interval / opts.dt)))
     per_segment = longest
-    traj = Trajectory(eqs)
+    traj = Trajectory(eqs, success=False, status="running")
     q, u = np.asarray(q0, float).copy(), np.asarray(u0, float).copy()
     work = np.zeros(eqs.nc + 1)
 
@@ -159,7 +159,7 @@ def simulate(
                 b.check_singularity(q[start : start + n], f"at t = {times[k]:.6g}")
                 start += n
         except SingularConfigurationError as exc:
-            raise SimulationError(str(exc), partial=traj) from exc
+            raise traj.stop_early(str(exc)) from exc
         w = input_at(times[k])
         rate = (input_at(times[k + 1]) - w) / opts.dt if k < n_steps else (w - input_at(times[k - 1])) / opts.dt
         udot, lam = eqs.forward_dynamics(q, u, times[k], w, rate)
@@ -180,11 +180,11 @@ def simulate(
                 # as each failure costs CVODES its max_steps.
                 per_segment = longest = 1
                 continue
-            raise SimulationError(_failure_message(eqs, q, times[k], times[k + 1], exc), partial=traj) from exc
+            raise traj.stop_early(_failure_message(eqs, q, times[k], times[k + 1], exc)) from exc
         X = np.asarray(res["xf"]).reshape(eqs.nq + eqs.nu, n)
         W = np.asarray(res["qf"]).reshape(eqs.nc + 1, n)  # constraint works, then applied loads
         if not np.all(np.isfinite(X)):
-            raise SimulationError(f"state became non-finite between t = {times[k]:g} and {times[k + n]:g}", partial=traj)
+            raise traj.stop_early(f"state became non-finite between t = {times[k]:g} and {times[k + n]:g}")
         q_end, u_end = X[: eqs.nq, -1], X[eqs.nq :, -1]
         _, _, phi, pi, _ = eqs.constraint_functions(q_end, u_end, times[k + n], input_at(times[k + n]))
         drift_q, drift_u = float(np.abs(np.asarray(phi)).max(initial=0.0)), float(np.abs(np.asarray(pi)).max(initial=0.0))
@@ -201,4 +201,5 @@ def simulate(
         if max(drift_q, drift_u) < opts.drift_tolerance / 16 and per_segment < longest:
             per_segment = min(longest, 2 * per_segment)
         k += n
+    traj.success, traj.status = True, "completed"
     return traj

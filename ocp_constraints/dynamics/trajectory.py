@@ -1,21 +1,31 @@
 """A trajectory of states, multipliers and loads, addressed by name.
 
 ``traj.sample("disk.theta")``, ``traj.sample("shaft.drive.lambda")``,
-``traj.loads()["shaft.M_z"]``: column names follow DESIGN.md's results contract.
+``traj.loads()["shaft.M_z"]``, ``traj.load_about("shaft", point)``, ``traj.success``,
+``traj.status``: the common vocabulary of :mod:`.result`; column names follow DESIGN.md's
+results contract.
 """
 from __future__ import annotations
 
 import numpy as np
 
+from ..errors import SimulationError
 from ..mechanics.equations import SystemEquations
-from ..errors import ModelError
+from .result import MechanicalResult
 
 
-class Trajectory:
-    """Samples of ``t, q, u, u', lambda, inputs`` and the accumulated constraint work."""
+class Trajectory(MechanicalResult):
+    """Samples of ``t, q, u, u', lambda, inputs`` and the accumulated constraint work.
 
-    def __init__(self, eqs: SystemEquations):
+    ``success``/``status``: ``simulate`` sets True/``"completed"`` at the end of a run, and
+    False/the reason on the partial trajectory of a run that stopped early
+    (``SimulationError.partial``); a trajectory built from given samples takes them as
+    arguments.
+    """
+
+    def __init__(self, eqs: SystemEquations, success: bool = True, status: str = "completed"):
         self.eqs = eqs
+        self.success, self.status = success, status
         self._rows: dict[str, list] = {k: [] for k in ("t", "q", "u", "udot", "lam", "inputs", "work", "drift_q", "drift_u",
                                                        "applied_work")}
 
@@ -68,62 +78,25 @@ class Trajectory:
         projection removed; the recorded states there are the projected ones)."""
         return float(self._array("drift_q").max(initial=0.0)), float(self._array("drift_u").max(initial=0.0))
 
-    # -- named access -----------------------------------------------------------------
-    def state_columns(self) -> dict[str, np.ndarray]:
-        """``<body>.<coordinate>``, ``<body>.<coordinate>_dot`` (angle rates) and speeds."""
-        m = self.eqs.model
-        cols: dict[str, np.ndarray] = {}
-        q, u = self.q, self.u
-        # One mapped evaluation over all samples instead of a Python loop.
-        rates = np.asarray(self.eqs.coordinate_rates.map(len(self))(q.T, u.T)).T.reshape(len(self), self.eqs.nq)
-        for i, n in enumerate(m.coordinate_names):
-            cols[n] = q[:, i]
-        for i, n in enumerate(m.coordinate_names):
-            if not n.split(".")[-1] in ("x", "y", "z"):
-                cols[f"{n}_dot"] = rates[:, i]
-        for i, n in enumerate(m.speed_names):
-            cols[n] = u[:, i]
-        return cols
+    @property
+    def inputs(self) -> np.ndarray:
+        """Actuator inputs (samples x inputs), in the order of ``model.inputs``."""
+        return self._array("inputs").reshape(len(self), self.eqs.inputs.numel())
 
-    def multiplier_columns(self) -> dict[str, np.ndarray]:
-        return {f"{n}.lambda": self.lam[:, k] for k, n in enumerate(self.eqs.constraint_names)}
+    # -- named access (the common vocabulary of dynamics/result.py) ---------------------
+    def mechanical_samples(self):
+        return self.eqs, self.t, self.q, self.u, self.lam, self.inputs
 
-    def input_columns(self) -> dict[str, np.ndarray]:
-        inputs = self._array("inputs").reshape(len(self), self.eqs.inputs.numel())
-        return {n: inputs[:, k] for k, n in enumerate(self.eqs.model.inputs)}
-
-    def sample(self, name: str) -> np.ndarray:
-        """Values of a named quantity at every sample (coordinate, rate, speed, multiplier or input)."""
+    def sample_columns(self) -> dict[str, np.ndarray]:
+        """Coordinates, rates, speeds, multipliers and inputs by name (built once per length)."""
         if self._columns is None:
-            self._columns = {**self.state_columns(), **self.multiplier_columns(), **self.input_columns()}
-        cols = self._columns
-        if name not in cols:
-            raise ModelError(f"no quantity named '{name}'; available: {sorted(cols)}")
-        return cols[name]
+            self._columns = super().sample_columns()
+        return self._columns
 
-    def loads(self) -> dict[str, np.ndarray]:
-        """Per scalar constraint ``<name>.lambda``; per joint ``F_x..z``, ``M_x..z``, ``point_x..z``, ``power``."""
-        cols = self.multiplier_columns()
-        f = self.eqs.loads_function
-        values = np.array([np.asarray(f(q, u, t, lam)).ravel() for q, u, t, lam in zip(self.q, self.u, self.t, self.lam)])
-        k = 0
-        for ch in self.eqs.load_channels:
-            for quantity in ("F", "M", "point"):
-                for axis in "xyz":
-                    cols[f"{ch.prefix}.{quantity}_{axis}"] = values[:, k]
-                    k += 1
-            cols[f"{ch.prefix}.power"] = values[:, k]
-            k += 1
-        return cols
-
-    def load_about(self, channel: str, point) -> tuple[np.ndarray, np.ndarray]:
-        """Force and moment of a joint load moved to another material point (eq. 33).
-
-        Returns arrays (samples x 3) in the fixed basis; ``point`` is a model ``Point``.
-        """
-        f = self.eqs.load_about_function(channel, point)
-        out = [f(q, u, t, lam) for q, u, t, lam in zip(self.q, self.u, self.t, self.lam)]
-        return (np.array([np.asarray(F).ravel() for F, _ in out]), np.array([np.asarray(M).ravel() for _, M in out]))
+    def stop_early(self, reason: str) -> SimulationError:
+        """Mark the run as stopped (``success`` False, ``status`` the reason); the error to raise."""
+        self.success, self.status = False, reason
+        return SimulationError(reason, partial=self)
 
     def energy(self) -> tuple[np.ndarray, np.ndarray]:
         """Kinetic and gravitational potential energy at every sample (J)."""

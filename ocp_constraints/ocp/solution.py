@@ -12,12 +12,18 @@ from dataclasses import dataclass, field
 import numpy as np
 
 
+from ..dynamics.result import Result
 from ..dynamics.trajectory import Trajectory
 
 
 @dataclass
-class OCPSolution:
-    """States, accelerations ``D = u'``, multipliers and inputs at the collocation points, and solver stats."""
+class OCPSolution(Result):
+    """States, accelerations ``D = u'``, multipliers and inputs at the collocation points, and solver stats.
+
+    Answers the common vocabulary (:mod:`ocp_constraints.dynamics.result`) through
+    :attr:`trajectory`, the collocation points as a :class:`Trajectory` (its ``success``
+    and ``status`` are IPOPT's, as here).
+    """
 
     transcription: object
     decision_vector: np.ndarray
@@ -40,7 +46,7 @@ class OCPSolution:
         D = tr.accelerations(X, A, t_final)
         t = tr.fractions * t_final
         eqs = tr.eqs
-        traj = Trajectory(eqs)
+        traj = Trajectory(eqs, bool(stats.get("success", False)), str(stats.get("return_status", "unknown")))
         for i in range(lay.n_points):
             traj.append(t[i], X[: eqs.nq, i], X[eqs.nq :, i], D[:, i], L[:, i], W[:, i], np.zeros(eqs.nc), 0.0, 0.0)
         return cls(tr, w, t, X, D, L, W, t_final, objective, dict(stats), wall_time, traj)
@@ -63,16 +69,17 @@ class OCPSolution:
         return self.trajectory.residuals()
 
     # -- named access -------------------------------------------------------------------------
-    def sample(self, name: str) -> np.ndarray:
-        """A coordinate, rate, speed, multiplier (``<constraint>.lambda``) or input at every point."""
-        inputs = list(self.transcription.problem.model.inputs)
-        if name in inputs:
-            return self.inputs[inputs.index(name)]
-        return self.trajectory.sample(name)
+    def sample_columns(self) -> dict[str, np.ndarray]:
+        """Coordinates, rates, speeds, multipliers (``<constraint>.lambda``) and inputs at every point."""
+        return self.trajectory.sample_columns()
 
     def loads(self) -> dict[str, np.ndarray]:
         """Per constraint ``lambda`` and per joint ``F``, ``M``, ``point``, ``power`` (DESIGN.md)."""
         return self.trajectory.loads()
+
+    def load_about(self, joint: str, point) -> tuple[np.ndarray, np.ndarray]:
+        """A joint load moved to the material ``point`` at every point (eq. 33), samples x 3 each."""
+        return self.trajectory.load_about(joint, point)
 
     def interpolate(self, name: str, times) -> np.ndarray:
         """A named quantity between points through each interval's collocation polynomial.
