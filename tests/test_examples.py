@@ -1,18 +1,220 @@
-"""Examples run headless as a user would run them."""
+"""Examples run headless as a user would run them, and what they print is checked against
+independent values: hand derivations, Pontryagin's conditions solved by SciPy, and the
+exported C library called through ctypes against hand formulas."""
 from __future__ import annotations
 
+import ctypes
+import math
 import os
+import re
 import subprocess
 import sys
 from pathlib import Path
 
+import numpy as np
 import pytest
+from scipy.integrate import simpson, solve_bvp, solve_ivp
 
-EXAMPLES = sorted((Path(__file__).parent.parent / "examples").glob("*.py"))
+EXAMPLES = Path(__file__).parent.parent / "examples"
+E1, E3 = np.array([1.0, 0.0, 0.0]), np.array([0.0, 0.0, 1.0])
 
 
-@pytest.mark.parametrize("path", EXAMPLES, ids=[p.name for p in EXAMPLES])
-def test_example_runs(path):
-    proc = subprocess.run([sys.executable, str(path)], capture_output=True, text=True, timeout=300,
+def _run(name: str, *args: str) -> str:
+    proc = subprocess.run([sys.executable, str(EXAMPLES / name), *args], capture_output=True, text=True, timeout=300,
                           env={**os.environ, "MPLBACKEND": "Agg"})
     assert proc.returncode == 0, proc.stderr
+    return proc.stdout
+
+
+def _number(pattern: str, text: str) -> float:
+    """The number captured by ``pattern`` in ``text`` (fails with the text if absent)."""
+    m = re.search(pattern, text)
+    assert m, f"{pattern!r} not in:\n{text}"
+    return float(m.group(1))
+
+
+def test_every_example_is_checked():
+    checked = {"whirling_by_hand.py", "swing_up.py", "cart_pole_by_hand.py", "export_to_c.py"}
+    assert {p.name for p in EXAMPLES.glob("*.py")} == checked
+
+
+# -- whirling body (paper sec. 3.4) -------------------------------------------------------------
+def _R1(a):
+    c, s = math.cos(a), math.sin(a)
+    return np.array([[1, 0, 0], [0, c, -s], [0, s, c]])
+
+
+def _R3(a):
+    c, s = math.cos(a), math.sin(a)
+    return np.array([[c, -s, 0], [s, c, 0], [0, 0, 1]])
+
+
+def _whirling_reference(t: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Motor torque lambda_4 and total energy of the example's body, by Euler's balance about X_A.
+
+    3-1-3 angles with phi = 0 (g^3 . omega = 0) and psi' = Omega(t) = 2 + 0.5 sin t, so
+    ``omega = psi' E3 + theta' g_2`` with ``g_2 = R3(psi) E1``, the only free rate being theta'.
+    About the fixed point X_A, ``dH_A/dt = J_A omega' + omega x J_A omega = r x m g + M_c`` with
+    ``M_c = lambda_4 g^1 + lambda_5 g^3``. Since ``g^1 . g_2 = g^3 . g_2 = 0`` the g_2 component
+    gives theta''; since ``g^1 . E3 = 1`` and ``g^3 . E3 = 0`` (E3 = g_1) the E3 component is
+    lambda_4 (the paper's motor torque, power lambda_4 Omega).
+    """
+    m, g = 1.2, 9.81
+    J = np.array([[0.040, 0.003, 0.006], [0.003, 0.020, -0.005], [0.006, -0.005, 0.050]])
+    r = np.array([0.08, -0.45, 0.06])                       # X_A -> center of mass, body basis
+    J_A = J + m * (r @ r * np.eye(3) - np.outer(r, r))     # parallel axes
+
+    def parts(tt, th, thd):
+        psi, psid, psidd = 2 * tt + 0.5 * (1 - math.cos(tt)), 2 + 0.5 * math.sin(tt), 0.5 * math.cos(tt)
+        Q = _R3(psi) @ _R1(th)
+        JA = Q @ J_A @ Q.T
+        g2 = _R3(psi) @ E1
+        om = psid * E3 + thd * g2
+        # everything of dH_A/dt - r x m g but the theta'' term
+        rest = JA @ (psidd * E3 + thd * psid * np.cross(E3, g2)) + np.cross(om, JA @ om) \
+            - np.cross(Q @ r, [0.0, 0.0, -m * g])
+        return JA, g2, om, rest, Q
+
+    def theta_ddot(tt, th, thd):
+        JA, g2, _, rest, _ = parts(tt, th, thd)
+        return -(g2 @ rest) / (g2 @ JA @ g2)
+
+    sol = solve_ivp(lambda tt, y: [y[1], theta_ddot(tt, *y)], (t[0], t[-1]), [math.pi / 2 + 0.5, 0.0],
+                    method="DOP853", rtol=1e-12, atol=1e-12, t_eval=t)
+    lam4, energy = np.empty_like(t), np.empty_like(t)
+    for k, (tt, th, thd) in enumerate(zip(t, *sol.y)):
+        JA, g2, om, rest, Q = parts(tt, th, thd)
+        lam4[k] = E3 @ (JA @ (theta_ddot(tt, th, thd) * g2) + rest)
+        energy[k] = 0.5 * om @ JA @ om + m * g * (Q @ r)[2]
+    return lam4, energy
+
+
+def test_whirling_example_motor_torque_power_and_work():
+    out = _run("whirling_by_hand.py")
+    t = np.linspace(0.0, 5.0, 501)                          # the example's samples (dt = 0.01)
+    lam4, energy = _whirling_reference(t)
+    Omega = 2 + 0.5 * np.sin(t)
+    # printed with 4 decimals (peaks) and 6 (work): bounds of about one unit in the last digit
+    assert _number(r"peak motor torque ([-\d.]+) N m", out) == pytest.approx(np.abs(lam4).max(), abs=1e-4)
+    assert _number(r"peak power ([-\d.]+) W", out) == pytest.approx(np.abs(lam4 * Omega).max(), abs=1e-4)
+    # the motor's work is the change of the total energy (eq. 27: the only power is lambda_4 Omega)
+    assert _number(r"over 5 s: ([-\d.]+) J", out) == pytest.approx(energy[-1] - energy[0], abs=2e-6)
+    assert energy[-1] - energy[0] == pytest.approx(simpson(lam4 * Omega, x=t), abs=1e-6)
+
+
+# -- pendulum swing-up ------------------------------------------------------------------------------
+def test_swing_up_example_objectives_and_peaks_match_the_pontryagin_reference():
+    from ocp_constraints.bench.references import swing_up_reference
+
+    out = _run("swing_up.py")
+    ref = swing_up_reference()            # the pendulum scene's defaults = the example's rod: 1 kg, 1 m, 9.81, |tau| <= 20
+    assert ref.objective == pytest.approx(8.913005, abs=1e-6)
+    # Radau 3: objective error O(h^5); the README's convergence table has 3.8e-5 at N = 40, which
+    # predicts 1.6e-4 at N = 30 and 1.6e-7 at N = 120; bounds twice those.
+    coarse = _number(r"objective ([\d.]+) N\^2", out)
+    fine = _number(r"refined to N = 120: objective ([\d.]+)", out)
+    assert abs(coarse - ref.objective) <= 3.2e-4
+    assert abs(fine - ref.objective) <= 3.2e-7
+    residuals = re.search(r"residuals \(position, velocity\): \(([^,]+), ([^)]+)\)", out)
+    assert residuals and max(float(residuals.group(1)), float(residuals.group(2))) <= 1e-9
+    # Peaks at the N = 30 collocation points against the extremal's on a fine grid: the hinge
+    # multipliers converge at order ~d (1.8e-3 of the load predicted at N = 30 from the README's
+    # 7.5e-4 at N = 40, i.e. 0.05 N), the torque to 1e-3 N m; bounds 0.1 N and 5e-3 N m.
+    t = np.linspace(0.0, 2.0, 20001)
+    F = ref.multipliers(t)
+    peak_F = np.hypot(F["hinge.v1.lambda"], F["hinge.v2.lambda"]).max()
+    assert _number(r"peak hinge force ([\d.]+) N", out) == pytest.approx(peak_F, abs=0.1)
+    assert _number(r"peak motor torque ([\d.]+) N m", out) == pytest.approx(np.abs(ref.torque(t)).max(), abs=5e-3)
+
+
+# -- cart-pole swing-up --------------------------------------------------------------------------
+def _cart_pole_optimum() -> float:
+    """min int F^2 of the example's cart-pole by Pontryagin's conditions in minimal coordinates.
+
+    ``(m_c + m_p) x'' + m_p h (cos(psi) psi'' - sin(psi) psi'^2) = F``,
+    ``m_p h cos(psi) x'' + (I_p + m_p h^2) psi'' + m_p g h sin(psi) = 0`` (h = L/2, I_p = m_p L^2/12,
+    psi from hanging); ``F = -p . (df/dF) / 2``, ``p' = -(df/dx)^T p`` (central differences), solved by
+    SciPy's collocation BVP solver from the straight line psi = pi t / T.
+    """
+    mc, mp, L, g, T = 1.0, 0.5, 1.0, 9.81, 2.0
+    h, Ip = L / 2, mp * L**2 / 12
+
+    def f(x, F):
+        psi, v, w = x[1], x[2], x[3]
+        c, s = np.cos(psi), np.sin(psi)
+        a11, a12, a22 = mc + mp, mp * h * c, Ip + mp * h * h
+        b1, b2 = F + mp * h * s * w * w, -mp * g * h * s
+        det = a11 * a22 - a12 * a12
+        return np.array([v, w, (a22 * b1 - a12 * b2) / det, (a11 * b2 - a12 * b1) / det])
+
+    def control(x, p):
+        zero = np.zeros_like(x[0])
+        return -0.5 * np.sum(p * (f(x, zero + 1.0) - f(x, zero)), axis=0)
+
+    def rhs(_, Y):
+        x, p = Y[:4], Y[4:]
+        F = control(x, p)
+        pdot = np.empty_like(p)
+        for j in range(4):
+            d = np.zeros((4, 1))
+            d[j] = 1e-6
+            pdot[j] = -np.sum(p * (f(x + d, F) - f(x - d, F)), axis=0) / 2e-6
+        return np.vstack([f(x, F), pdot])
+
+    t = np.linspace(0, T, 41)
+    Y = np.zeros((8, t.size))
+    Y[1], Y[3] = math.pi * t / T, math.pi / T
+    res = solve_bvp(rhs, lambda a, b: np.array([*a[:4], b[0], b[1] - math.pi, b[2], b[3]]), t, Y, tol=1e-6,
+                    max_nodes=100000)
+    assert res.status == 0, res.message
+    ts = np.linspace(0, T, 4001)
+    Ys = res.sol(ts)
+    return float(simpson(control(Ys[:4], Ys[4:]) ** 2, x=ts))
+
+
+def test_cart_pole_example_objective_matches_pontryagin_in_minimal_coordinates():
+    out = _run("cart_pole_by_hand.py")
+    assert "Solve_Succeeded" in out
+    reference = _cart_pole_optimum()
+    assert reference == pytest.approx(112.1364, abs=1e-3)
+    # Radau 3 on 30 intervals: measured 1.2e-2 above the extremal (1.05e-4 relative, Radau 3 at
+    # N = 30 on the single pendulum: 1.8e-5); bound 2e-4 relative. The two-body model in maximal
+    # coordinates with 10 hand-written constraints and the 2-DOF Lagrangian share no code.
+    assert _number(r"objective ([\d.]+)", out) == pytest.approx(reference, rel=2e-4)
+
+
+# -- C export ---------------------------------------------------------------------------------------
+def test_export_example_round_trip_and_the_compiled_functions_against_hand_formulas(tmp_path):
+    out_dir = tmp_path / "rolling_disk_c"
+    out = _run("export_to_c.py", str(out_dir))
+    assert _number(r"round trip on 200 random states: max relative error ([-+.\deE]+)", out) <= 1e-12
+    # Build the shared library with the generated Makefile and call it through ctypes.
+    subprocess.run(["make", "librolling_disk_constraints.so"], cwd=out_dir, check=True, capture_output=True)
+    lib = ctypes.CDLL(str(out_dir / "librolling_disk_constraints.so"))
+    arr = ctypes.POINTER(ctypes.c_double)
+
+    def call(name, *inputs, sizes):
+        outs = [np.zeros(n) for n in sizes]
+        args = [np.ascontiguousarray(a, float).ctypes.data_as(arr) for a in (*inputs, *outs)]
+        assert getattr(lib, name)(*args) == 0
+        return outs
+
+    m, R, g = 1.0, 0.15, 9.81                                   # rolling_disk defaults
+    rng = np.random.default_rng(3)
+    for _ in range(20):
+        q = rng.uniform(-1.0, 1.0, 6)
+        q[4] = rng.uniform(0.3, 2.8)                            # theta away from the 3-1-3 singularity
+        u, lam = rng.normal(size=6), rng.normal(size=3)
+        # contact point X_P = xbar - R e2'' with e2'' = R3(psi) R1(theta) E2 (problems/_disk.py)
+        xP = q[:3] - R * _R3(q[3]) @ _R1(q[4]) @ np.array([0.0, 1.0, 0.0])
+        vP = u[:3] + np.cross(u[3:], xP - q[:3])
+        (pi,) = call("rolling_disk_residual", q, u, sizes=[3])
+        assert np.allclose(pi, vP, rtol=0, atol=1e-14)          # E_k . v_P (rolling without slip)
+        force, point, power = call("rolling_disk_loads", q, u, lam, sizes=[3, 3, 1])
+        assert np.allclose(force, lam, rtol=0, atol=1e-15)      # F_c = sum lambda_k E_k
+        assert np.allclose(point, xP, rtol=0, atol=1e-15)
+        assert power[0] == pytest.approx(lam @ vP, abs=1e-14)   # F_c . v_P (no moment)
+    # At rest upright the contact carries the weight and no friction.
+    q = np.array([0.2, -0.1, R, 0.7, math.pi / 2, 1.3])
+    (lam,) = call("rolling_disk_multipliers", q, np.zeros(6), np.zeros(6), sizes=[3])
+    assert np.allclose(lam, [0.0, 0.0, m * g], rtol=0, atol=1e-12)
