@@ -34,11 +34,11 @@ import numpy as np
 
 from ..errors import ModelError
 from .nlp_assembly import BlockNLP, element
+from .bounds import variable_bounds
 from .guess import consistent_guess, from_solution
 from .progress import IterationMonitor, stop_on_signals
 from .solution import OCPSolution
 from ..errors import OCPSolveError
-from ..mechanics.rotations import EulerSequence
 from ..mechanics.state import project_positions
 from .schemes import Scheme
 
@@ -264,44 +264,7 @@ class Transcription:
 
     # -- bounds and guess ---------------------------------------------------------------------
     def _bounds(self, x0: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        lay, pr = self.layout, self.problem
-        lo = [np.full(n, -np.inf) for n in lay.sizes()]
-        hi = [np.full(n, np.inf) for n in lay.sizes()]
-        names_x = pr.model.coordinate_names + pr.model.speed_names
-        names_w = list(pr.model.inputs)
-        for name, (a, b) in pr.bounds.items():
-            if name in names_x:
-                r = names_x.index(name)
-                lo[0][r :: lay.nx], hi[0][r :: lay.nx] = a, b
-            elif name in names_w:
-                r = names_w.index(name)
-                lo[3][r :: lay.n_in], hi[3][r :: lay.n_in] = a, b
-            else:
-                raise ModelError(f"bound on '{name}': only coordinates, speeds and inputs take bounds; use subject_to for rates")
-        if lay.free_time:
-            lo[5][:], hi[5][:] = pr.t_final_bounds
-        self._keep_away_from_euler_singularities(lo[0], hi[0], names_x, x0[: lay.nx])
-        return np.concatenate(lo), np.concatenate(hi)
-
-    def _keep_away_from_euler_singularities(self, lo, hi, names_x, x_start) -> None:
-        """Bound each Euler body's second angle inside the regular band of its start value.
-
-        Where the user set no bound: the dual Euler basis (and so the dynamics) is
-        singular at theta = k pi (proper sequences) or pi/2 + k pi (Tait-Bryan), and an
-        iterate that crosses there makes IPOPT wander.
-        """
-        lay = self.layout
-        for b in self.eqs.bodies:
-            rot = b.rotation
-            name = f"{b.name}.theta"
-            if not isinstance(rot, EulerSequence) or name in self.problem.bounds:
-                continue
-            r = names_x.index(name)
-            offset = 0.0 if rot.is_proper else np.pi / 2
-            k = np.floor((x_start[r] + offset) / np.pi)
-            margin = max(rot.singularity_tolerance, 1e-3)
-            lo[r :: lay.nx] = k * np.pi - offset + margin
-            hi[r :: lay.nx] = (k + 1) * np.pi - offset - margin
+        return variable_bounds(self, x0)
 
     def _boundary_values(self) -> tuple[np.ndarray, np.ndarray]:
         lbg, ubg = self._lbg.copy(), self._ubg.copy()
