@@ -30,6 +30,10 @@ class SceneError(OcpConstraintsError, ValueError):
     """A scene name, scene file or scene parameter is unusable."""
 
 
+class UsageError(OcpConstraintsError, ValueError):
+    """A command-line option is unusable or contradicts another (e.g. ``--degree`` without Radau)."""
+
+
 class SimulationError(OcpConstraintsError, RuntimeError):
     """A forward simulation stopped early; ``partial`` holds what was computed."""
 
@@ -103,6 +107,33 @@ class ImplantGeometryError(OcpConstraintsError, ValueError):
 
 class KneeError(OcpConstraintsError, ValueError):
     """A knee-load computation cannot run: bad files, missing coordinates, solver failure."""
+
+
+# -- resources and interruption
+
+class ResourceLimitError(OcpConstraintsError, ValueError):
+    """A run would need more memory than the machine has; the message carries the estimate."""
+
+    def __init__(self, message: str, estimate=None):
+        super().__init__(message)
+        self.estimate = estimate
+
+
+class RunInterrupted(KeyboardInterrupt):
+    """SIGINT or SIGTERM arrived during a run (a ``KeyboardInterrupt``, so scripts stop as on Ctrl-C).
+
+    ``signal_name`` is ``"SIGINT"`` or ``"SIGTERM"``; ``partial`` is set by the function that was
+    interrupted to what it had computed (e.g. the trajectory up to the last complete sample)."""
+
+    def __init__(self, signal_name: str = "SIGINT"):
+        super().__init__(f"interrupted by {signal_name}")
+        self.signal_name = signal_name
+        self.partial = None
+
+
+def interruption_reason(exc: BaseException) -> str:
+    """``"interrupted by SIGINT"`` (or SIGTERM) for a ``KeyboardInterrupt`` from Ctrl-C or the CLI's handlers."""
+    return f"interrupted by {getattr(exc, 'signal_name', 'SIGINT')}"
 
 
 # -- batches

@@ -44,6 +44,7 @@ from ..errors import OcpConstraintsError
 from .gait_feet import Leg, assign_plates, find_legs
 from .gait_model import JointInfo, constraint_model
 from ..errors import GaitError
+from .casadi_numpy import evaluate
 from .gait_signals import check_cutoff, filter_coordinates, motion_units
 from ..dynamics.inverse import InverseDynamics
 from ..dynamics.result import MechanicalResult
@@ -265,8 +266,7 @@ def run_inverse_dynamics(model_path, motion_path, grf_path, start: float | None 
     P, Pd, Pdd = splines(t)
     bodies = list(model.bodies)
     N, nb = len(t), len(bodies)
-    R, xbar, vbar, w, abar, alpha, J = (np.asarray(x) for x in
-                                        osim.kinematics_function(bodies).map(N)(P.T, Pd.T, Pdd.T))
+    R, xbar, vbar, w, abar, alpha, J = evaluate(osim.kinematics_function(bodies).map(N), P.T, Pd.T, Pdd.T)
     q = np.zeros((N, 7 * nb))
     u = np.zeros((N, 6 * nb))
     ud = np.zeros((N, 6 * nb))
@@ -294,11 +294,11 @@ def run_inverse_dynamics(model_path, motion_path, grf_path, start: float | None 
     except OcpConstraintsError as exc:
         raise GaitError(f"{model_path}: {exc}") from exc
     residual, lam, tau = sol.residual, sol.lam, sol.inputs
-    G = np.asarray(ca.Function("G", [eqs.q], [eqs.G]).map(N)(q.T))
     # generalized forces per OpenSim coordinate: inputs + Phi = lambda A, A = G dU/dpdot (eqs. 38-41)
-    Gs = np.stack([G[:, n * eqs.nu:(n + 1) * eqs.nu] for n in range(N)])
-    Js = np.stack([J[:, n * len(names):(n + 1) * len(names)] for n in range(N)])
-    gen = np.einsum("nk,nkc->nc", lam, Gs @ Js)
+    lam_sym = ca.SX.sym("lam", eqs.nc)
+    GT_lam = evaluate(ca.Function("GT_lam", [eqs.q, lam_sym], [eqs.G.T @ lam_sym]).map(N), q.T, lam.T)[0]
+    Js = J.reshape(J.shape[0], N, len(names)).transpose(1, 0, 2)
+    gen = np.einsum("kn,nkc->nc", GT_lam, Js)
     inputs = list(model.inputs)
     for i, name in enumerate(inputs):
         gen[:, names.index(name)] += tau[:, i]

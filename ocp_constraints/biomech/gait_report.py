@@ -14,9 +14,11 @@ if TYPE_CHECKING:
 
 def write_gait_results(result: GaitResult, out, side: str = "right", plots: bool = True, inputs: dict | None = None) -> dict:
     """``summary.json``, ``loads.csv`` (DESIGN.md names plus ``<coordinate>_moment/_force``) and plots."""
-    from ..output.files import prepare_output_folder, software_versions, write_csv, write_json
+    from ..output.files import software_versions, write_csv, write_json
+    from ..output.run_folder import RunFolder
 
-    folder = prepare_output_folder(out)
+    run_folder = RunFolder(out)        # written whole: the previous run's files are replaced
+    folder = run_folder.begin()
     leg = result.leg_joints(side)
     cols = {**result.generalized_force_columns(), **result.loads()}
     write_csv(folder / "loads.csv", result.t, cols)
@@ -35,9 +37,10 @@ def write_gait_results(result: GaitResult, out, side: str = "right", plots: bool
                                     for j in leg for c in result.osim.joints[j].coordinates},
         "wall_time": result.timings, "warnings": result.warnings, "software": software_versions(),
     }
-    write_json(folder / "summary.json", summary)
     if plots:
         summary["plots"] = _plots(result, folder, leg)
+    write_json(folder / "summary.json", summary)
+    run_folder.commit()
     return summary
 
 

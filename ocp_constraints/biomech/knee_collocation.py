@@ -62,6 +62,7 @@ import numpy as np
 
 from .knee_static import RESERVE_WEIGHT, RESERVED, StaticResult
 from ..errors import KneeError
+from ..output.signals import call_interruptibly
 
 TAU_ACT = 0.015        # s, De Groote et al. 2016
 TAU_DEACT = 0.060      # s, De Groote et al. 2016
@@ -172,8 +173,8 @@ def solve_collocation(t, Qc, R, A, F0, muscles_on: bool = True, contact_nonnegat
                           reserve_weight=reserve_weight, passive=passive)
         x0[:nm] = x0[nm:2 * nm] = st.activation.T
         x0[2 * nm:2 * nm + 5], x0[2 * nm + 5:] = st.lam.T, st.reserve.T
-    sol = solver(x0=x0.ravel(order="F"), p=pars.ravel(order="F"), lbx=lbx.ravel(order="F"),
-                 ubx=ubx.ravel(order="F"), lbg=0, ubg=0)
+    sol = call_interruptibly(solver, x0=x0.ravel(order="F"), p=pars.ravel(order="F"), lbx=lbx.ravel(order="F"),
+                             ubx=ubx.ravel(order="F"), lbg=0, ubg=0)   # Ctrl-C: RunInterrupted, not a failure
     stats = solver.stats()
     status = stats["return_status"]
     done = time.perf_counter()

@@ -67,14 +67,14 @@ def exponents(n_primary: int, n_secondary: int) -> np.ndarray:
 def basis(x, E: np.ndarray):
     """Monomials ``prod_i x_i^E[k, i]`` for numeric ``x`` (samples x vars) or a CasADi column."""
     if isinstance(x, (ca.SX, ca.MX)):
-        out = []
-        for e in E:
-            term = 1
-            for i, p in enumerate(e):
-                if p:
-                    term = term * x[i] ** int(p)
-            out.append(term)
-        return ca.vertcat(*[ca.SX(t) if isinstance(t, int) else t for t in out])
+        E = np.asarray(E, dtype=int)
+        out = ca.DM.ones(E.shape[0])
+        for i in range(E.shape[1]):          # column-wise: a few vector operations per variable
+            top = int(E[:, i].max(initial=0))
+            if top:
+                powers = ca.vertcat(1, *[x[i] ** k for k in range(1, top + 1)])
+                out = out * powers[E[:, i].tolist()]
+        return out if isinstance(out, (ca.SX, ca.MX)) else ca.SX(out)
     x = np.atleast_2d(x)
     return np.prod(x[:, None, :] ** E[None, :, :], axis=2)
 

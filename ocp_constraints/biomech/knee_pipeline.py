@@ -147,9 +147,11 @@ def run_knee(model, motion, grf, measured=None, muscles_on: bool = True, muscle_
 
 
 def write_knee_results(run: dict, out, plots: bool = True, inputs: dict | None = None) -> dict:
-    from ..output.files import prepare_output_folder, software_versions, write_csv, write_json
+    from ..output.files import software_versions, write_csv, write_json
+    from ..output.run_folder import RunFolder
 
-    folder = prepare_output_folder(out)
+    run_folder = RunFolder(out)        # written whole: the previous run's files are replaced
+    folder = run_folder.begin()
     r = run["result"]
     write_csv(folder / "loads.csv", r.t, r.sample_columns())
     from .knee_static import RESERVED
@@ -184,9 +186,10 @@ def write_knee_results(run: dict, out, plots: bool = True, inputs: dict | None =
             "tau_act_s": r.tau[0], "tau_deact_s": r.tau[1], "smoothing_b": SMOOTHING,
             "objective": "int sum (e^2 + a^2)/2 + reserve_weight sum rho^2 dt (trapezoidal weights)"}
         summary["solve_time_s"] = r.timings["build"] + r.timings["solve"]
-    write_json(folder / "summary.json", summary)
     if plots:
         summary["plots"] = [_plot(run, folder)]
+    write_json(folder / "summary.json", summary)
+    run_folder.commit()
     return summary
 
 

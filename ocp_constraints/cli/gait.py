@@ -1,6 +1,7 @@
 """``ocp-constraints gait``: inverse dynamics of a measured gait trial (arguments and handler)."""
 from __future__ import annotations
 
+import os
 import sys
 
 from ..errors import OcpConstraintsError
@@ -26,6 +27,9 @@ def add_gait_parser(subparsers) -> None:
 
 def cli_gait(args) -> int:
     """Run ``gait``; errors in the input print one line and return 2."""
+    # the per-sample systems are small (about 150 unknowns): BLAS threads only contend (measured:
+    # inverse dynamics of ngait_og5 30 s -> 5 s on the loaded 2-core machine); set before NumPy loads
+    os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
     from ..biomech.gait import run_inverse_dynamics
     from ..biomech.gait_report import write_gait_results
 

@@ -9,19 +9,26 @@
     ocp-constraints gait --model MODEL.osim --motion IK --grf GRF [--side right] [--start T0 --end T1] --out DIR
     ocp-constraints knee --model MODEL.osim --motion IK --grf GRF [--measured KCF] [--muscle-model hill|ideal] --out DIR
     ocp-constraints bench [SCENE ...] [--quick] [--target-error E] [--out DIR]
+    ocp-constraints batch SPEC.toml --out DIR [--scheduler ADDRESS] [--workers N] [--resume]
 
 Registering a subcommand imports only argparse code (:mod:`.scenes`, :mod:`.export`, ...); the
 library, SciPy and matplotlib are imported by the handler that needs them, so ``--help`` is fast.
 Errors in the input are reported in one line naming the culprit, with exit status 2; a run that
-stops early writes what it computed (``"success": false``) and exits 1.
+stops early writes what it computed (``"success": false``) and exits 1. SIGINT (Ctrl-C) and SIGTERM
+take one path (:mod:`ocp_constraints.output.signals`): the run stops, what it computed is written
+with ``"status": "interrupted by SIGINT"`` (or SIGTERM), and the exit status is 130 (SIGINT) or
+143 (SIGTERM), the shell's convention for a run ended by that signal.
 """
 from __future__ import annotations
 
 import argparse
+import signal
 import sys
 
 from .._version import __version__
-from ..errors import OcpConstraintsError
+from ..errors import OcpConstraintsError, interruption_reason
+from ..output.signals import interrupt_on_signals
+from .batch import add_batch_parser
 from .bench import add_bench_parser
 from .export import add_export_parser
 from .gait import add_gait_parser
@@ -44,13 +51,21 @@ def parser() -> argparse.ArgumentParser:
     add_gait_parser(sub)
     add_knee_parser(sub)
     add_bench_parser(sub)
+    add_batch_parser(sub)
     return p
 
 
 def main(argv: list[str] | None = None) -> int:
     args = parser().parse_args(argv)
-    try:
-        return args.handler(args)
-    except OcpConstraintsError as exc:
-        print(f"error: {exc}", file=sys.stderr)
-        return 2
+    with interrupt_on_signals():
+        try:
+            return args.handler(args)
+        except OcpConstraintsError as exc:
+            print(f"error: {exc}", file=sys.stderr)
+            return 2
+        except KeyboardInterrupt as exc:   # SIGINT, or SIGTERM through the same handler
+            name = getattr(exc, "signal_name", "SIGINT")
+            written = getattr(exc, "written_to", None)
+            print(f"{interruption_reason(exc)}: " + (f"what was computed is written to {written} (summary.json has "
+                  "\"success\": false)" if written else "nothing had been computed, nothing written"), file=sys.stderr)
+            return 128 + int(getattr(signal, name, signal.SIGINT))

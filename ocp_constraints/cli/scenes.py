@@ -21,7 +21,7 @@ def add_scene_parsers(sub) -> None:
     o.add_argument("--task", default=None, help="task of the scene (default: its first)")
     o.add_argument("--scheme", default="radau", choices=["trapezoidal", "hermite-simpson", "radau"],
                    help="collocation scheme (default radau)")
-    o.add_argument("--degree", type=int, default=3, help="Radau degree, 1 to 9 (default 3)")
+    o.add_argument("--degree", type=int, default=None, help="Radau degree, 1 to 9 (default 3; --scheme radau only)")
     o.add_argument("--intervals", type=int, default=50, help="mesh intervals (default 50)")
     o.add_argument("--out", default=None, help="folder for summary.json, trajectory.csv, loads.csv and plots")
     o.add_argument("--param", action="append", default=[], metavar="NAME=VALUE", help="override a scene parameter")
@@ -51,8 +51,14 @@ def _simulate(args) -> int:
 
     scene = build_scene(args.scene, parse_param_arguments(args.param))
     options = SimulationOptions(dt=args.dt)
+
+    def started(info: dict) -> None:   # one line before the integration: what the run will cost
+        print(f"simulating {args.scene}: t = {info['t0']:g} ... {info['t_final']:g} s, {info['samples']:,} samples, "
+              f"about {info['memory_bytes'] / 1e6:.3g} MB", file=sys.stderr, flush=True)
+
     try:
-        _, summary = run_simulation(scene, args.scene, args.t_final, args.out, options, plots=not args.no_plots)
+        _, summary = run_simulation(scene, args.scene, args.t_final, args.out, options, plots=not args.no_plots,
+                                    on_start=started)
     except SimulationError as exc:
         print(f"error: simulation stopped early: {exc}", file=sys.stderr)
         if args.out:
@@ -75,8 +81,13 @@ def _solve(args) -> int:
     from ..scenes.tasks import run_optimal_control
     from ..ocp.schemes import scheme_from_name
 
+    from ..errors import UsageError
+
+    if args.degree is not None and args.scheme != "radau":
+        raise UsageError(f"--degree {args.degree} applies to --scheme radau only; {args.scheme} has a fixed order. "
+                         "Drop --degree, or use --scheme radau")
     task, problem = build_task(args.scene, args.task, parse_param_arguments(args.param))
-    method = scheme_from_name(args.scheme, args.intervals, args.degree)
+    method = scheme_from_name(args.scheme, args.intervals, 3 if args.degree is None else args.degree)
     try:
         sol, summary = run_optimal_control(problem, args.scene, task, method, args.out, plots=not args.no_plots,
                                            reintegrate=args.reintegrate)

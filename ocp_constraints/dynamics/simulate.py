@@ -22,7 +22,8 @@ import numpy as np
 from ..mechanics.equations import SystemEquations
 from ..errors import ModelError, SimulationError
 from ..mechanics.rotations import UnitQuaternion
-from ..errors import SingularConfigurationError
+from ..errors import RunInterrupted, SingularConfigurationError, interruption_reason
+from .preflight import check_initial_state, check_resources, input_function, state_vector
 from .trajectory import Trajectory
 from ..mechanics.state import project_state
 
@@ -45,6 +46,9 @@ class SimulationOptions:
     drift_tolerance: float = 1e-9
     max_steps: int = 500_000
     method: str = "adams"
+    #: Bytes the run may use at its peak (None: 80% of the memory available at the start); a run
+    #: estimated above it is refused with :class:`~ocp_constraints.errors.ResourceLimitError`.
+    max_memory: float | None = None
 
     def validate(self) -> None:
         for name in ("dt", "rtol", "atol", "projection_interval"):
@@ -63,28 +67,30 @@ class _Integrators:
         self.opts = opts
         # MX symbols that call the model's SX functions: works whether the forward
         # dynamics are one SX graph or a sparse numerical solve (large systems).
-        t0, tau = ca.MX.sym("t0"), ca.MX.sym("tau")
+        t0, tau, h = ca.MX.sym("t0"), ca.MX.sym("tau"), ca.MX.sym("h")
         q, u = ca.MX.sym("q", e.nq), ca.MX.sym("u", e.nu)
         t = t0 + tau
-        # Inputs vary linearly over one output interval: w(tau) = w0 + tau (w1 - w0) / dt.
+        # Inputs vary linearly over one output interval of length h: w(tau) = w0 + tau (w1 - w0) / h.
         n_in = e.inputs.numel()
         w0, w1 = ca.MX.sym("w0", n_in), ca.MX.sym("w1", n_in)
-        rate = (w1 - w0) / opts.dt
+        rate = (w1 - w0) / h
         w = w0 + tau * rate
         udot, lam = e.forward_dynamics(q, u, t, w, rate)
         qdot = ca.Function("qdot", [e.q, e.u, e.t], [e.qdot])(q, u, t)
         econ = ca.Function("e", [e.q, e.t, e.inputs], [e.e])(q, t, w)
         applied = ca.Function("applied_power", [e.q, e.u, e.t, e.inputs], [e.applied_power])(q, u, t, w)
         power = ca.vertcat(-lam * econ if e.nc else ca.MX(0, 1), applied)
-        self.dae = {"x": ca.vertcat(q, u), "p": ca.vertcat(t0, w0, w1), "t": tau,
+        self.dae = {"x": ca.vertcat(q, u), "p": ca.vertcat(t0, h, w0, w1), "t": tau,
                     "ode": ca.vertcat(qdot, udot), "quad": power}
-        self._cache: dict[int, ca.Function] = {}
+        self._cache: dict[tuple[int, float], ca.Function] = {}
 
-    def __call__(self, n: int) -> ca.Function:
-        if n not in self._cache:
-            o = self.opts
-            grid = [o.dt * (k + 1) for k in range(n)]
-            self._cache[n] = ca.integrator(
+    def __call__(self, n: int, step: float | None = None) -> ca.Function:
+        """``n`` samples ``step`` apart (default ``dt``; the last step of a run may be shorter)."""
+        o = self.opts
+        step = o.dt if step is None else step
+        if (n, step) not in self._cache:
+            grid = [step * (k + 1) for k in range(n)]
+            self._cache[n, step] = ca.integrator(
                 f"forward_{n}", "cvodes", self.dae, 0.0, grid,
                 {"abstol": o.atol, "reltol": o.rtol, "max_num_steps": o.max_steps,
                  # CVODES gives up once its step falls below 1e-13 of the segment (it only
@@ -93,7 +99,7 @@ class _Integrators:
                  "min_step_size": 1e-13 * grid[-1],
                  "linear_multistep_method": o.method},
             )
-        return self._cache[n]
+        return self._cache[n, step]
 
 
 def _failure_message(eqs: SystemEquations, q: np.ndarray, t0: float, t1: float, exc: Exception) -> str:
@@ -123,33 +129,60 @@ def simulate(
     options: SimulationOptions | None = None,
     inputs: Callable[[float], np.ndarray] | None = None,
     t0: float = 0.0,
+    on_start: Callable[[dict], None] | None = None,
 ) -> Trajectory:
-    """Integrate from a consistent state ``(q0, u0)`` at ``t0`` to ``t_final``.
+    """Integrate from a consistent state ``(q0, u0)`` at ``t0`` to ``t_final`` (s).
 
     ``inputs(t)`` gives the actuator inputs (and prescribed motions), taken linear
-    between output samples, so an input that enters a constraint has a known rate. Returns a :class:`Trajectory` sampled every ``options.dt``. A singular
-    Euler configuration or an integrator failure raises :class:`SimulationError` whose
-    ``partial`` attribute holds the trajectory up to the last good sample.
+    between output samples, so an input that enters a constraint has a known rate. Returns a
+    :class:`Trajectory` sampled every ``options.dt`` from ``t0``, and at ``t_final`` itself (the
+    last step is shorter when the span is not a multiple of ``dt``).
+
+    What enters is checked first (:mod:`.preflight`): ``q0``, ``u0`` of the model's length, finite,
+    on the constraints (:class:`InconsistentStateError` naming the violated constraints, e.g. for a
+    state not from :func:`consistent_state`); constraints and loads finite; the accelerations
+    determined (no zero inertia about a free axis); ``inputs`` callable with the model's number of
+    finite values; ``dt`` not longer than the run; the memory the samples need (a
+    :class:`ResourceLimitError` with the estimate beyond ``options.max_memory``). ``on_start``, if
+    given, is called with that estimate when the integration starts.
+
+    A singular Euler configuration or an integrator failure raises :class:`SimulationError` whose
+    ``partial`` attribute holds the trajectory up to the last good sample. SIGINT (Ctrl-C), or
+    SIGTERM under the command line, raises :class:`RunInterrupted` (a ``KeyboardInterrupt``) whose
+    ``partial`` holds the trajectory up to the last complete sample (``status`` "interrupted by SIGINT").
     """
     opts = options or SimulationOptions()
     opts.validate()
     if not np.isfinite(t_final) or t_final <= t0:
         raise ModelError(f"t_final must be a finite time after t0 = {t0}, got {t_final!r}")
+    span = float(t_final - t0)
+    if opts.dt > span * (1 + 1e-9):
+        raise ModelError(f"dt = {opts.dt:g} s is longer than the run (t_final - t0 = {span:g} s): no sample would "
+                         f"lie between the start and the end. Use dt <= {span:g} s")
     n_in = eqs.inputs.numel()
-    if n_in and inputs is None:
-        raise ModelError(f"model '{eqs.model.name}' has inputs {list(eqs.model.inputs)}: pass inputs(t)")
+    input_at = input_function(eqs, inputs)
+    q0, u0 = state_vector(eqs, q0, "q0"), state_vector(eqs, u0, "u0")
+    check_initial_state(eqs, q0, u0, t0, input_at(t0))
+    # Samples every dt from t0, and t_final itself (never past it); counted before any is made.
+    n_full = int(np.floor(span / opts.dt + 1e-9))
+    short_last = span - n_full * opts.dt > 1e-9 * opts.dt
     integrators = _Integrators(eqs, opts)
-    n_steps = int(np.ceil((t_final - t0) / opts.dt - 1e-9))
-    times = t0 + opts.dt * np.arange(n_steps + 1)
+    estimate = check_resources(eqs, n_full + 1 + short_last, span, opts.dt, opts.max_memory,
+                               lambda: _seconds_per_sample(eqs, q0, u0, t0, n_full, inputs, opts))
+    times = t0 + opts.dt * np.arange(n_full + 1)
+    if short_last:
+        times = np.append(times, t_final)
+    times[-1] = t_final
+    n_steps = len(times) - 1
+    last_step = float(times[-1] - times[-2])
+    if on_start is not None:
+        on_start({**estimate, "t0": t0, "t_final": float(t_final), "dt": opts.dt, "last_step": last_step})
     # With inputs, CVODES restarts at every sample (the inputs are linear per sample).
     longest = 1 if n_in else max(1, int(round(opts.projection_interval / opts.dt)))
     per_segment = longest
     traj = Trajectory(eqs, success=False, status="running")
     q, u = np.asarray(q0, float).copy(), np.asarray(u0, float).copy()
     work = np.zeros(eqs.nc + 1)
-
-    def input_at(t: float) -> np.ndarray:
-        return np.zeros(n_in) if not n_in else np.asarray(inputs(t), float).reshape(n_in)
 
     def record(k: int, q, u, work, drift_q=0.0, drift_u=0.0) -> None:
         start = 0
@@ -161,45 +194,83 @@ def simulate(
         except SingularConfigurationError as exc:
             raise traj.stop_early(str(exc)) from exc
         w = input_at(times[k])
-        rate = (input_at(times[k + 1]) - w) / opts.dt if k < n_steps else (w - input_at(times[k - 1])) / opts.dt
+        if k < n_steps:
+            rate = (input_at(times[k + 1]) - w) / (times[k + 1] - times[k])
+        else:
+            rate = (w - input_at(times[k - 1])) / (times[k] - times[k - 1])
         udot, lam = eqs.forward_dynamics(q, u, times[k], w, rate)
         traj.append(times[k], q, u, np.asarray(udot).ravel(), np.asarray(lam).ravel(), w, work[:-1], drift_q, drift_u,
                     applied_work=work[-1])
 
-    record(0, q, u, work)
-    k = 0
-    while k < n_steps:
-        n = min(per_segment, n_steps - k)
-        w = np.concatenate([input_at(times[k]), input_at(times[k + n])])
-        try:
-            res = integrators(n)(x0=np.concatenate([q, u]), p=np.concatenate([[times[k]], w]))
-        except RuntimeError as exc:
-            if n > 1:
-                # Redo the segment one sample at a time, to keep every good sample and
-                # to find where (and why) the integration breaks down; no growing back,
-                # as each failure costs CVODES its max_steps.
-                per_segment = longest = 1
+    try:
+        record(0, q, u, work)
+        k = 0
+        while k < n_steps:
+            n = min(per_segment, n_steps - k)
+            step = opts.dt
+            if short_last and k + n == n_steps:   # the shorter last step is integrated on its own
+                if n > 1:
+                    n -= 1
+                else:
+                    step = last_step
+            w = np.concatenate([input_at(times[k]), input_at(times[k + n])])
+            try:
+                res = integrators(n, step)(x0=np.concatenate([q, u]), p=np.concatenate([[times[k], step], w]))
+            except RuntimeError as exc:
+                if n > 1:
+                    # Redo the segment one sample at a time, to keep every good sample and
+                    # to find where (and why) the integration breaks down; no growing back,
+                    # as each failure costs CVODES its max_steps.
+                    per_segment = longest = 1
+                    continue
+                raise traj.stop_early(_failure_message(eqs, q, times[k], times[k + 1], exc)) from exc
+            X = np.asarray(res["xf"]).reshape(eqs.nq + eqs.nu, n)
+            W = np.asarray(res["qf"]).reshape(eqs.nc + 1, n)  # constraint works, then applied loads
+            if not np.all(np.isfinite(X)):
+                raise traj.stop_early(f"state became non-finite between t = {times[k]:g} and {times[k + n]:g}")
+            q_end, u_end = X[: eqs.nq, -1], X[eqs.nq :, -1]
+            _, _, phi, pi, _ = eqs.constraint_functions(q_end, u_end, times[k + n], input_at(times[k + n]))
+            drift_q, drift_u = float(np.abs(np.asarray(phi)).max(initial=0.0)), float(np.abs(np.asarray(pi)).max(initial=0.0))
+            if max(drift_q, drift_u) > opts.drift_tolerance and n > 1:
+                # Drifted too far (a fast rotation, a long segment): integrate it again in
+                # halves. Nothing of it has been recorded yet.
+                per_segment = n // 2
                 continue
-            raise traj.stop_early(_failure_message(eqs, q, times[k], times[k + 1], exc)) from exc
-        X = np.asarray(res["xf"]).reshape(eqs.nq + eqs.nu, n)
-        W = np.asarray(res["qf"]).reshape(eqs.nc + 1, n)  # constraint works, then applied loads
-        if not np.all(np.isfinite(X)):
-            raise traj.stop_early(f"state became non-finite between t = {times[k]:g} and {times[k + n]:g}")
-        q_end, u_end = X[: eqs.nq, -1], X[eqs.nq :, -1]
-        _, _, phi, pi, _ = eqs.constraint_functions(q_end, u_end, times[k + n], input_at(times[k + n]))
-        drift_q, drift_u = float(np.abs(np.asarray(phi)).max(initial=0.0)), float(np.abs(np.asarray(pi)).max(initial=0.0))
-        if max(drift_q, drift_u) > opts.drift_tolerance and n > 1:
-            # Drifted too far (a fast rotation, a long segment): integrate it again in
-            # halves. Nothing of it has been recorded yet.
-            per_segment = n // 2
-            continue
-        for j in range(n - 1):
-            record(k + j + 1, X[: eqs.nq, j], X[eqs.nq :, j], work + W[:, j])
-        q, u, _, _ = project_state(eqs, q_end, u_end, times[k + n], input_at(times[k + n]))
-        work = work + W[:, -1]
-        record(k + n, q, u, work, drift_q, drift_u)
-        if max(drift_q, drift_u) < opts.drift_tolerance / 16 and per_segment < longest:
-            per_segment = min(longest, 2 * per_segment)
-        k += n
+            for j in range(n - 1):
+                record(k + j + 1, X[: eqs.nq, j], X[eqs.nq :, j], work + W[:, j])
+            q, u, _, _ = project_state(eqs, q_end, u_end, times[k + n], input_at(times[k + n]))
+            work = work + W[:, -1]
+            record(k + n, q, u, work, drift_q, drift_u)
+            if max(drift_q, drift_u) < opts.drift_tolerance / 16 and per_segment < longest:
+                per_segment = min(longest, 2 * per_segment)
+            k += n
+    except KeyboardInterrupt as exc:
+        # Ctrl-C or the CLI's SIGTERM: keep every complete sample, say why the run ended.
+        traj.drop_incomplete_sample()
+        traj.success, traj.status = False, interruption_reason(exc)
+        err = exc if isinstance(exc, RunInterrupted) else RunInterrupted("SIGINT")
+        err.partial = traj
+        if err is exc:
+            raise
+        raise err from None
     traj.success, traj.status = True, "completed"
     return traj
+
+
+def _seconds_per_sample(eqs: SystemEquations, q0, u0, t0: float, n_full: int, inputs, opts: SimulationOptions) -> float:
+    """Seconds a sample costs, from two short runs of this simulation (50 and 150 samples; their
+    difference leaves out the fixed cost of building the integrators). For a refused run's message."""
+    import time
+    from dataclasses import replace
+
+    small = replace(opts, max_memory=None)
+    took = []
+    for n in (min(50, n_full), min(150, n_full)):
+        started = time.perf_counter()
+        try:
+            simulate(eqs, q0, u0, t0 + n * opts.dt, small, inputs=inputs, t0=t0)
+        except SimulationError:
+            pass
+        took.append((n, time.perf_counter() - started))
+    (n1, s1), (n2, s2) = took
+    return (s2 - s1) / (n2 - n1) if n2 > n1 and s2 > s1 else s2 / max(n2, 1)

@@ -36,6 +36,13 @@ class Trajectory(MechanicalResult):
             self._rows[key].append(np.array(value, dtype=float, copy=True))
         self._columns = None
 
+    def drop_incomplete_sample(self) -> None:
+        """Keep only whole samples (after an interruption in the middle of :meth:`append`)."""
+        n = min(len(v) for v in self._rows.values())
+        for v in self._rows.values():
+            del v[n:]
+        self._columns = None
+
     def __len__(self) -> int:
         return len(self._rows["t"])
 

@@ -264,7 +264,7 @@ class SystemEquations:
         G = np.asarray(self.constraint_functions(q, np.zeros(self.nu), t, np.zeros(self.inputs.numel()))[0])
         scale = max(1.0, np.abs(G).max())
         kept: list[int] = []
-        problems = []
+        problems, drop, alternatives = [], [], []
         for k in range(self.nc):
             rows = G[kept + [k]]
             if np.linalg.matrix_rank(rows, tol=tol * scale) == len(kept) + 1:
@@ -273,11 +273,15 @@ class SystemEquations:
             coef, *_ = np.linalg.lstsq(G[kept].T, G[k], rcond=None) if kept else (np.zeros(0),)
             combo = [self.constraint_names[kept[i]] for i in range(len(kept)) if abs(coef[i]) > 1e-8]
             what = ", ".join(f"'{n}'" for n in combo) if combo else "nothing (its gradient is zero)"
-            problems.append(f"'{self.constraint_names[k]}' is a combination of {what}")
+            name = self.constraint_names[k]
+            problems.append(f"'{name}' is a combination of {what}")
+            drop.append(f"'{name}'")
+            alternatives.append(f"'{name}' or one of {what}" if combo else f"'{name}'")
         if problems:
             raise RedundantConstraintsError(
                 f"model '{self.model.name}': redundant constraints at t = {t:g}: "
                 + "; ".join(problems)
-                + ". Remove them (each scalar constraint must restrict a new direction), or the "
-                "multipliers are not determined."
+                + f". Drop {', '.join(drop)} (each scalar constraint must restrict a new direction, or the "
+                "multipliers are not determined); any one constraint of each combination may go instead: "
+                + "; ".join(alternatives) + "."
             )

@@ -20,7 +20,9 @@ from .bodies import Body, Point
 from .joints_spatial import (  # noqa: F401  (the spatial joints are part of this library)
     E, _fmt, _unit, ball_and_socket, cylindrical, planar, point_on_line, prismatic, revolute, universal, weld,
 )
+from ..errors import ModelError
 from .model import Model
+from .validate import angle_index, scalar_expression
 
 
 def _note(model: Model, cname: str, text: str) -> None:
@@ -34,7 +36,8 @@ def sliding_contact(model: Model, name: str, point: Point, normal=(0, 0, 1), rat
     moving surface pass ``position`` (``phi(q, t)``) or None. Multiplier ``n``: the normal force.
     """
     n = _unit(normal, f"joint '{name}': normal")
-    if position is None and height is not None and isinstance(rate, (int, float)) and rate == 0:
+    rate = scalar_expression(rate, f"joint '{name}': rate", "e.g. 0.1 * ca.sin(model.t) for a moving surface")
+    if position is None and height is not None and rate.is_zero():
         position = ca.dot(n, point.position) - height
     model.add_constraint(f"{name}.n", ca.dot(n, point.v) - rate, joint=name, position=position, point=point)
     _note(model, f"{name}.n", f"normal force: component along {_fmt(n)} (fixed basis) on '{point.body.name}' "
@@ -47,7 +50,14 @@ def rolling_contact(model: Model, name: str, point: Point, surface_velocity=(0.0
     ``F_c = sum lambda_k E_k`` at ``X_P`` (normal force plus static friction), ``M_c = 0``.
     Only the normal direction ``E3`` is holonomic (``E3 . x_P = height`` for a fixed plane).
     """
-    vs = ca.SX(surface_velocity) if isinstance(surface_velocity, ca.SX) else ca.DM(np.asarray(surface_velocity, dtype=float).reshape(3))
+    if isinstance(surface_velocity, ca.SX):
+        vs = surface_velocity
+    else:
+        try:
+            vs = ca.DM(np.asarray(surface_velocity, dtype=float).reshape(3))
+        except (TypeError, ValueError):
+            raise ModelError(f"joint '{name}': surface_velocity must be 3 numbers or a 3x1 CasADi SX expression of "
+                             f"model.t, got {type(surface_velocity).__name__}") from None
     for k in range(3):
         pos = None
         if k == 2 and height is not None and not isinstance(vs, ca.SX) and float(vs[2]) == 0.0:
@@ -91,6 +101,8 @@ def driven_axis(model: Model, name: str, body: Body, rate, index: int = 1, rate_
     ``initial_angle`` to get the position form ``a_i - a_i(0) - int Omega``. The multiplier is
     ``<name>.drive``; a second drive in the same joint is ``<name>.drive<index>`` (or ``suffix``).
     """
+    index = angle_index(index, body, name)
+    rate = scalar_expression(rate, f"joint '{name}': rate Omega(t)")
     gi = body.dual_euler_basis()[index - 1]
     pos = None
     if rate_integral is not None and initial_angle is not None:
@@ -107,6 +119,7 @@ def fixed_angle(model: Model, name: str, body: Body, index: int, value: float | 
     With ``value``, the position form is ``a_i - value``. The multiplier is ``<name>.lock``; a
     second fixed angle in the same joint is ``<name>.lock<index>`` (or ``suffix``).
     """
+    index = angle_index(index, body, name)
     gi = body.dual_euler_basis()[index - 1]
     pos = None if value is None else body.rotation_parameters[index - 1] - value
     cname = f"{name}.{_free_suffix(model, name, suffix, 'lock', index)}"

@@ -13,6 +13,7 @@ import numpy as np
 from .bodies import Body, Point
 from .constraints import Constraint, Joint, derive_prescription
 from ..errors import ModelError
+from .validate import check_finite, member_body
 
 
 @dataclass(eq=False)
@@ -114,6 +115,10 @@ class Model:
         # Work on a copy of the joint's points: a rejected constraint changes nothing.
         points = dict(j.points)
         if point is not None:
+            if not isinstance(point, Point):
+                raise ModelError(f"constraint '{name}': point= must be a Point (body.point(...)), got "
+                                 f"{type(point).__name__}")
+            member_body(self, point.body, f"constraint '{name}': point= {point.label}")
             existing = points.get(point.body.name)
             if existing is not None and existing is not point:
                 raise ModelError(
@@ -124,10 +129,20 @@ class Model:
         e, shares = derive_prescription(
             name, expression, list(self.bodies.values()), self.t, self.input_vector, points
         )
+        check_finite(expression, f"constraint '{name}'")
+        if point is not None and point.body not in [sh.body for sh in shares]:
+            raise ModelError(
+                f"constraint '{name}': point= {point.label} is on body '{point.body.name}', which the constraint "
+                f"does not involve (it acts on {', '.join(repr(sh.body.name) for sh in shares)}). Give a point of "
+                "a body whose velocity the constraint uses, or leave point= out")
         if position is not None:
+            if callable(position) and not isinstance(position, (ca.SX, ca.MX, ca.DM)):
+                raise ModelError(f"constraint '{name}': position form is a Python function; give a CasADi SX "
+                                 "expression phi(q, t) (of coordinates and model.t), or leave it out")
             position = ca.SX(position)
             if position.shape != (1, 1):
                 raise ModelError(f"constraint '{name}': position form must be scalar")
+            check_finite(position, f"constraint '{name}': position form")
         c = Constraint(name, joint_name, expression, e, shares, position)
         j.points = points
         j.constraints.append(c)
@@ -136,12 +151,18 @@ class Model:
 
     def add_force(self, name: str, point: Point, force) -> PointForce:
         """Apply a force (N, fixed basis) at ``point``."""
+        if not isinstance(point, Point):
+            raise ModelError(f"force '{name}': point must be a Point (body.point(...)), got {type(point).__name__}")
+        member_body(self, point.body, f"force '{name}' at {point.label}")
         f = PointForce(name, point, _vector3(force, f"force '{name}'"))
         self.forces.append(f)
         return f
 
     def add_torque(self, name: str, body: Body, torque, reaction_body: Body | None = None) -> BodyTorque:
         """Apply a torque (N m, fixed basis) to ``body`` (and minus it to ``reaction_body``)."""
+        member_body(self, body, f"torque '{name}'")
+        if reaction_body is not None:
+            member_body(self, reaction_body, f"torque '{name}': reaction_body")
         tq = BodyTorque(name, body, _vector3(torque, f"torque '{name}'"), reaction_body)
         self.torques.append(tq)
         return tq
@@ -210,9 +231,16 @@ def _gradient_note(c: Constraint) -> str:
 
 
 def _vector3(value, what: str) -> ca.SX:
-    v = ca.SX(value) if not isinstance(value, ca.SX) else value
+    if callable(value) and not isinstance(value, (ca.SX, ca.MX, ca.DM)):
+        raise ModelError(f"{what} is a Python function; give 3 numbers or a 3x1 CasADi SX expression (of "
+                         "model.t, coordinates, speeds, inputs) instead")
+    try:
+        v = ca.SX(value) if not isinstance(value, ca.SX) else value
+    except (NotImplementedError, TypeError, ValueError, RuntimeError):
+        raise ModelError(f"{what} must be 3 numbers or a 3x1 CasADi SX expression, got {value!r}") from None
     if v.shape == (1, 3):
         v = v.T
     if v.shape != (3, 1):
         raise ModelError(f"{what} must be a 3-vector, got shape {v.shape}")
+    check_finite(v, what)
     return v

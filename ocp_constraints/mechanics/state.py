@@ -14,6 +14,7 @@ import scipy.linalg
 from .equations import SystemEquations
 from ..errors import InconsistentStateError, ModelError
 from .rotations import UnitQuaternion
+from .validate import check_constraint_values, input_values
 
 POSITION_TOL = 1e-9
 VELOCITY_TOL = 1e-9
@@ -72,11 +73,12 @@ def consistent_state(eqs: SystemEquations, coordinates: dict[str, float], rates:
     :class:`RedundantConstraintsError` if constraints repeat each other.
     """
     q = coordinate_vector(eqs, coordinates)
-    inputs = np.zeros(eqs.inputs.numel()) if inputs is None else np.asarray(inputs, float).reshape(eqs.inputs.numel())
+    inputs = input_values(eqs, inputs, t0)
     for b in eqs.bodies:
         sl = eqs.model.coordinate_names.index(b.coordinate_names[0])
         b.check_singularity(q[sl : sl + b.q.numel()], f"at t = {t0:g}")
     G, e, phi, _, _ = (np.asarray(x) for x in eqs.constraint_functions(q, np.zeros(eqs.nu), t0, inputs))
+    check_constraint_values(eqs, G, e, phi)
     phi = phi.ravel()
     for k, i in enumerate(eqs.holonomic):
         if abs(phi[k]) > POSITION_TOL:

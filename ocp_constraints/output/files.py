@@ -2,7 +2,9 @@
 
 The format is DESIGN.md's results contract (external checkers read these files).
 Every file is written whole: to a temporary file in the same folder, then renamed, so
-a crash never leaves a half-written file that looks complete.
+a crash never leaves a half-written file that looks complete; it gets the permissions the
+user's umask gives (``0666 & ~umask``, as ``open()`` would), not ``mkstemp``'s private 0600.
+A run's folder is written whole by :class:`RunFolder` (see there).
 """
 from __future__ import annotations
 
@@ -31,19 +33,38 @@ def software_versions() -> dict[str, str]:
 def prepare_output_folder(out: str | Path) -> Path:
     """Create ``out`` (and parents); a clear error if it cannot be written."""
     path = Path(out)
+    if path.exists() and not path.is_dir():
+        raise OcpConstraintsError(f"cannot write results to '{path}': it exists and is not a folder; give another "
+                                  "--out (a folder, new or earlier results)")
     try:
         path.mkdir(parents=True, exist_ok=True)
         probe = tempfile.NamedTemporaryFile(dir=path, prefix=".write-test-", delete=True)
         probe.close()
     except OSError as exc:
-        raise OcpConstraintsError(f"cannot write results to '{path}': {exc.strerror or exc}") from exc
+        raise OcpConstraintsError(f"cannot write results to '{path}': {exc.strerror or exc}; give an --out folder "
+                                  "you can write to") from exc
     return path
 
 
+def current_umask() -> int:
+    """The process's umask (read from /proc where it can be, so nothing is changed even briefly)."""
+    try:
+        with open("/proc/self/status") as fh:
+            for line in fh:
+                if line.startswith("Umask:"):
+                    return int(line.split()[1], 8)
+    except (OSError, ValueError):
+        pass
+    mask = os.umask(0o022)
+    os.umask(mask)
+    return mask
+
+
 def write_atomic(path: Path, data: bytes) -> None:
-    """Write ``data`` to ``path`` through a temporary file and a rename."""
+    """Write ``data`` to ``path`` through a temporary file and a rename (mode ``0666 & ~umask``)."""
     fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.", suffix=".tmp")
     try:
+        os.fchmod(fd, 0o666 & ~current_umask())   # mkstemp's 0600 would survive the rename
         with os.fdopen(fd, "wb") as fh:
             fh.write(data)
         os.replace(tmp, path)

@@ -15,7 +15,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from types import ModuleType
 
-from ..errors import SceneError
+from ..errors import OcpConstraintsError, SceneError
 from ..mechanics.model import Model
 
 
@@ -101,7 +101,7 @@ def build_scene(name_or_path: str, overrides: dict[str, object] | None = None) -
     """Build a scene by name or path with parameter overrides (name -> value)."""
     module = load_scene_module(name_or_path)
     params = resolve_parameters(name_or_path, module.DEFAULTS, overrides or {})
-    scene = module.build(params)
+    scene = _call_scene_code(name_or_path, "build(params)", module.build, params)
     if not isinstance(scene, Scene):
         raise SceneError(f"scene '{name_or_path}': build() must return a Scene, got {type(scene).__name__}")
     return scene
@@ -117,7 +117,25 @@ def build_task(name_or_path: str, task: str | None, overrides: dict[str, object]
     if name not in tasks:
         raise SceneError(f"scene '{name_or_path}' has no task '{name}'; its tasks: {', '.join(tasks)}")
     params = resolve_parameters(name_or_path, module.DEFAULTS, overrides or {})
-    return name, tasks[name](params)
+    return name, _call_scene_code(name_or_path, f"task '{name}'", tasks[name], params)
+
+
+def _call_scene_code(scene: str, what: str, function, params: dict):
+    """Run a scene's ``build`` or task function; its own failure becomes a :class:`SceneError`
+    naming the scene, the file and line where it failed, and the parameters (our errors pass as they are)."""
+    try:
+        return function(params)
+    except OcpConstraintsError:
+        raise
+    except Exception as exc:  # noqa: BLE001 - the scene's code failed: say where, as one line
+        frames = traceback.extract_tb(exc.__traceback__)
+        source = getattr(getattr(function, "__code__", None), "co_filename", None)
+        own = [f for f in frames if f.filename == source] or frames[1:] or frames
+        frame = own[-1]   # the deepest line of the scene's own file
+        raise SceneError(
+            f"scene '{scene}': {what} failed at {frame.filename}, line {frame.lineno}: {type(exc).__name__}: {exc}. "
+            f"Check the scene's code and its parameters ({', '.join(f'{k}={v:g}' for k, v in params.items())})"
+        ) from exc
 
 
 def parse_param_arguments(items: list[str]) -> dict[str, str]:

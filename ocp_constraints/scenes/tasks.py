@@ -16,7 +16,9 @@ from ..errors import SimulationError
 from ..ocp.problem import OptimalControlProblem
 from ..ocp.solution import OCPSolution
 from ..errors import OCPSolveError
-from ..output.files import prepare_output_folder, software_versions, write_csv, write_json, write_plots
+from ..errors import interruption_reason
+from ..output.files import software_versions, write_csv, write_json, write_plots
+from ..output.run_folder import RunFolder
 from .registry import Scene
 from ..dynamics.simulate import SimulationOptions, simulate
 from ..dynamics.trajectory import Trajectory
@@ -56,26 +58,44 @@ def simulate_scene(scene: Scene, t_final: float | None = None, options: Simulati
 
 
 def run_simulation(scene: Scene, scene_name: str, t_final: float | None = None, out: str | Path | None = None,
-                   options: SimulationOptions | None = None, plots: bool = True) -> tuple[Trajectory, dict]:
-    """Simulate ``scene`` and, if ``out`` is given, write the results files there.
+                   options: SimulationOptions | None = None, plots: bool = True,
+                   on_start=None) -> tuple[Trajectory, dict]:
+    """Simulate ``scene`` and, if ``out`` is given, write the results files there (the folder
+    written whole: :class:`~ocp_constraints.output.run_folder.RunFolder`).
 
     Returns the trajectory and the summary. If the simulation stops early, the part
-    that was computed is written with ``"success": false`` and the error is re-raised.
+    that was computed is written with ``"success": false`` and the error is re-raised; so is
+    a run interrupted by SIGINT/SIGTERM (``"status": "interrupted by SIGINT"``; the
+    ``KeyboardInterrupt`` is re-raised with ``written_to`` set to the folder). ``on_start``
+    gets the run's estimate (samples, memory) when the integration starts.
     """
     opts = options or SimulationOptions()
-    out_path = prepare_output_folder(out) if out is not None else None
+    folder = RunFolder(out) if out is not None else None
     t_end = float(scene.t_final if t_final is None else t_final)
-    started = time.perf_counter()
+    clock = time.perf_counter()
     eqs = SystemEquations(scene.model)
     q0, u0 = consistent_state(eqs, scene.coordinates, scene.rates, inputs=scene.inputs(0.0) if scene.inputs else None)
     built = time.perf_counter()
-    error: SimulationError | None = None
+    error: BaseException | None = None
+    estimate: dict = {}
+
+    def started(info: dict) -> None:
+        estimate.update(info)
+        if on_start is not None:
+            on_start(info)
+
     try:
-        traj = simulate(eqs, q0, u0, t_end, opts, inputs=scene.inputs)
+        traj = simulate(eqs, q0, u0, t_end, opts, inputs=scene.inputs, on_start=started)
+        status = "completed"
     except SimulationError as exc:
         if exc.partial is None or len(exc.partial) == 0:
             raise
-        error, traj = exc, exc.partial
+        error, traj, status = exc, exc.partial, "stopped early"
+    except KeyboardInterrupt as exc:   # SIGINT, or SIGTERM under the command line: write what exists
+        partial = getattr(exc, "partial", None)
+        if folder is None or partial is None or len(partial) == 0:
+            raise
+        error, traj, status = exc, partial, interruption_reason(exc)
     solved = time.perf_counter()
     pos, vel = traj.residuals()
     energy = energy_balance(traj)
@@ -84,14 +104,18 @@ def run_simulation(scene: Scene, scene_name: str, t_final: float | None = None, 
         "scene": scene_name,
         "task": "simulate",
         "success": error is None,
-        "status": "completed" if error is None else "stopped early",
-        "message": "" if error is None else str(error),
+        "status": status,
+        "message": "" if error is None else (status if isinstance(error, KeyboardInterrupt) else str(error))
+        + (f" at t = {float(traj.t[-1]):g} s" if isinstance(error, KeyboardInterrupt) else ""),
         "parameters": scene.model.parameters,
-        "solver": {"integrator": "cvodes", **asdict(opts), "t_final": t_end, "drift_handling": DRIFT_METHOD},
+        "solver": {"integrator": "cvodes", **asdict(opts), "t_final": t_end, "drift_handling": DRIFT_METHOD,
+                   "last_step": estimate.get("last_step")},
+        "resources": {"samples_planned": estimate.get("samples"), "memory_estimate_bytes": estimate.get("memory_bytes"),
+                      "memory_available_bytes": estimate.get("available_bytes")},
         "iterations": None,
         "samples": len(traj),
         "t_reached": float(traj.t[-1]),
-        "wall_time": {"build": built - started, "solve": solved - built},
+        "wall_time": {"build": built - clock, "solve": solved - built},
         "objective": None,
         "max_constraint_residual": {"position": pos, "velocity": vel},
         "max_residual_before_projection": {"position": drift_q, "velocity": drift_u},
@@ -100,27 +124,38 @@ def run_simulation(scene: Scene, scene_name: str, t_final: float | None = None, 
         "joints": [ch.prefix for ch in eqs.load_channels],
         "software": software_versions(),
     }
-    summary["wall_time"]["total"] = time.perf_counter() - started
-    if out_path is not None:
+    summary["wall_time"]["total"] = time.perf_counter() - clock
+    if folder is not None:
         series = energy["series"]
         inputs = {n: traj.sample(n) for n in scene.model.inputs}
-        write_trajectory_results(out_path, traj, summary, inputs, plots,
+        write_trajectory_results(folder, traj, summary, inputs, plots,
                                  {"E = T + U": series["total"], "work of constraints and applied loads": series["work"]})
+        if isinstance(error, KeyboardInterrupt):
+            error.written_to = str(folder.path)
     if error is not None:
         raise error
     return traj, summary
 
 
-def write_trajectory_results(out_path: Path, traj: Trajectory, summary: dict, inputs: dict[str, np.ndarray],
-                             plots: bool, energy: dict[str, np.ndarray] | None = None) -> None:
-    """trajectory.csv (states, then inputs), loads.csv, plots, and summary.json last (DESIGN.md)."""
-    states = {**traj.state_columns(), **inputs}
-    loads = traj.loads()
-    write_csv(out_path / "trajectory.csv", traj.t, states)
-    write_csv(out_path / "loads.csv", traj.t, loads)
-    if plots:
-        summary["plots"] = write_plots(out_path, traj.t, states, loads, summary["joints"], energy)
-    write_json(out_path / "summary.json", summary)
+def write_trajectory_results(out: RunFolder | str | Path, traj: Trajectory, summary: dict, inputs: dict[str, np.ndarray],
+                             plots: bool, energy: dict[str, np.ndarray] | None = None) -> list[str]:
+    """trajectory.csv (states, then inputs), loads.csv, plots, and summary.json, written whole into
+    ``out`` (a :class:`RunFolder` or a folder path): the previous run's files there are replaced,
+    summary.json last (DESIGN.md). Returns the file names."""
+    folder = out if isinstance(out, RunFolder) else RunFolder(out)
+    staging = folder.begin()
+    try:
+        states = {**traj.state_columns(), **inputs}
+        loads = traj.loads()
+        write_csv(staging / "trajectory.csv", traj.t, states)
+        write_csv(staging / "loads.csv", traj.t, loads)
+        if plots:
+            summary["plots"] = write_plots(staging, traj.t, states, loads, summary["joints"], energy)
+        write_json(staging / "summary.json", summary)
+        return folder.commit()
+    except BaseException:
+        folder.abort()
+        raise
 
 
 def run_optimal_control(problem: OptimalControlProblem, scene_name: str, task: str, method,
@@ -132,7 +167,7 @@ def run_optimal_control(problem: OptimalControlProblem, scene_name: str, task: s
     ``reintegrate``, the deviation of a forward simulation of the optimal inputs.
     A failed solve writes the last iterate with ``"success": false`` and re-raises.
     """
-    out_path = prepare_output_folder(out) if out is not None else None
+    folder = RunFolder(out) if out is not None else None
     error: OCPSolveError | None = None
     try:
         sol = problem.solve(method, ipopt_options)
@@ -163,9 +198,9 @@ def run_optimal_control(problem: OptimalControlProblem, scene_name: str, task: s
     if reintegrate and error is None:
         check = sol.reintegrate()
         summary["reintegration"] = {k: v for k, v in check.items() if k != "trajectory"}
-    if out_path is not None:
+    if folder is not None:
         inputs = {n: sol.sample(n) for n in problem.model.inputs}
-        write_trajectory_results(out_path, sol.trajectory, summary, inputs, plots)
+        write_trajectory_results(folder, sol.trajectory, summary, inputs, plots)
     if error is not None:
         raise error
     return sol, summary
