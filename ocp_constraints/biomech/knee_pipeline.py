@@ -76,7 +76,8 @@ METHODS = ("static", "collocation")
 
 
 def run_knee(model, motion, grf, measured=None, muscles_on: bool = True, muscle_model: str = "ideal",
-             method: str = "static", cutoff: float | None = 6.0, implant_meshes=None, build_model_data: bool = True):
+             method: str = "static", cutoff: float | None = 6.0, implant_meshes=None, build_model_data: bool = True,
+             passive_hip: str = "riener-edrich-1999"):
     """Gait cycle -> inverse dynamics -> static optimisation or collocation (-> comparison). Returns a dict.
 
     ``method``: ``"static"`` (per-frame static optimisation, :mod:`.knee_static`) or
@@ -92,7 +93,15 @@ def run_knee(model, motion, grf, measured=None, muscles_on: bool = True, muscle_
     OpenSim is installed and ``implant_meshes`` given, refused otherwise). The inverse
     dynamics runs once, on the samples of the right gait cycle only (the cycle is found from
     the plates that the inverse dynamics gives to the right foot).
+
+    ``passive_hip``: ``"riener-edrich-1999"`` (default) takes the passive hip flexion moment of
+    :mod:`.knee_passive` off the muscles' share of the hip flexion balance; ``"none"`` leaves
+    the whole net moment to the muscles (and reserves).
     """
+    from .knee_passive import PASSIVE_HIP
+
+    if passive_hip not in PASSIVE_HIP:
+        raise KneeError(f"unknown passive hip model '{passive_hip}' (use one of {', '.join(PASSIVE_HIP)})")
     if muscle_model not in MUSCLE_MODELS:
         raise KneeError(f"unknown muscle model '{muscle_model}' (use one of {', '.join(MUSCLE_MODELS)})")
     if method not in METHODS:
@@ -120,6 +129,15 @@ def run_knee(model, motion, grf, measured=None, muscles_on: bool = True, muscle_
     params = muscle_parameters(model, paths.muscles)
     F0 = np.array([params[m].max_isometric_force for m in paths.muscles])
     Qc, R, A = frame_data(gait, paths, contact_matrix_function({**default_parameters(), **data.geometry}))
+    passive = None
+    if passive_hip != "none":           # passive structures carry part of the hip flexion moment
+        from .knee_passive import passive_hip_moment
+        from .knee_static import RESERVED
+
+        names, P = gait.coordinate_names, gait.states["p"]
+        passive = passive_hip_moment(P[:, names.index("hip_flexion")], P[:, names.index("knee_flexion")])
+        Qc = Qc.copy()
+        Qc[:, RESERVED.index("hip_flexion")] -= passive
     hill = None
     if muscle_model == "hill":
         from .knee_hill import hill_forces, scale_lengths
@@ -138,7 +156,8 @@ def run_knee(model, motion, grf, measured=None, muscles_on: bool = True, muscle_
     res.muscles = paths.muscles
     bw = sum(b.mass for b in gait.osim.bodies.values()) * float(np.linalg.norm(gait.osim.gravity))
     out = {"result": res, "gait": gait, "cycle": (t0, t1), "bw": bw, "F0": F0, "hill": hill, "muscle_model": muscle_model,
-           "method": method, "model_data": data, "wall_total": time.perf_counter() - clock}
+           "method": method, "model_data": data, "passive_hip": (passive_hip, passive),
+           "wall_total": time.perf_counter() - clock}
     if measured is not None:
         meas = read_measured(measured)
         out["measured"] = meas
@@ -153,7 +172,11 @@ def write_knee_results(run: dict, out, plots: bool = True, inputs: dict | None =
     run_folder = RunFolder(out)        # written whole: the previous run's files are replaced
     folder = run_folder.begin()
     r = run["result"]
-    write_csv(folder / "loads.csv", r.t, r.sample_columns())
+    passive_name, passive = run.get("passive_hip", ("none", None))
+    cols = r.sample_columns()
+    if passive is not None:
+        cols["passive_hip_flexion_moment"] = passive
+    write_csv(folder / "loads.csv", r.t, cols)
     from .knee_static import RESERVED
 
     method = run.get("method", "static")
@@ -169,6 +192,7 @@ def write_knee_results(run: dict, out, plots: bool = True, inputs: dict | None =
                "model_data": run["model_data"].summary() if run.get("model_data") else None,
                "muscle_model": _muscle_model_text(run),
                "peak_reserve_Nm": {c: float(np.abs(r.reserve[:, i]).max()) for i, c in enumerate(RESERVED)},
+               "passive_hip": _passive_text(passive_name, passive),
                "peak_bw": {"medial": float(r.medial.max() / run["bw"]), "lateral": float(r.lateral.max() / run["bw"]),
                            "total": float(r.total.max() / run["bw"])},
                "comparison": run.get("comparison"), "software": software_versions()}
@@ -193,6 +217,15 @@ def write_knee_results(run: dict, out, plots: bool = True, inputs: dict | None =
     return summary
 
 
+
+
+def _passive_text(name: str, passive) -> dict:
+    if passive is None:
+        return {"model": "none: the muscles (and reserves) carry the whole net hip flexion moment"}
+    from .knee_passive import SOURCE
+
+    return {"model": name, "source": SOURCE, "applied_to": "hip_flexion balance (muscles' share = Q - M_passive)",
+            "range_Nm": [float(passive.min()), float(passive.max())]}
 
 
 def _muscle_model_text(run) -> dict:

@@ -1,0 +1,197 @@
+"""Issue 15: the knee's modelling candidates, one at a time, measured against the eTibia loads.
+
+    python scripts/knee_candidates.py [--out results/knee]
+
+Runs the inverse dynamics of ngait_og5 once, then the static optimisation with one change
+at a time (and the adopted combination), and writes ``candidates.md`` / ``candidates.json``:
+RMSE (BW), R^2 and peak error per compartment, the mean lateral force in mid-stance
+(2.43-2.60 s) and the late-stance total peak (2.65-2.85 s), the peak reserves. The measured
+loads are used here for the table only; nothing is fitted to them.
+
+Candidates that need OpenSim (the muscles' moment arms by OpenSim's own
+``computeMomentArm`` at the trial's poses) run it in its own process (the ``opensim``
+extra); without it they are skipped. jw_ngait_og1 (workshop folder) cannot be run: that
+folder has no ground reactions for it, and without them there is no inverse dynamics.
+"""
+from __future__ import annotations
+
+import argparse
+import json
+import subprocess
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+import casadi as ca
+import numpy as np
+import scipy.sparse as sp
+
+ROOT = Path(__file__).resolve().parents[1]
+sys.path.insert(0, str(ROOT))
+from ocp_constraints.biomech.gait import run_inverse_dynamics  # noqa: E402
+from ocp_constraints.biomech.knee_model import contact_matrix_function  # noqa: E402
+from ocp_constraints.biomech.knee_muscles import PRIMARY, SECONDARY, MusclePaths, muscle_parameters  # noqa: E402
+from ocp_constraints.biomech.knee_passive import passive_hip_moment  # noqa: E402
+from ocp_constraints.biomech.knee_pipeline import gait_cycle, read_measured  # noqa: E402
+from ocp_constraints.biomech.knee_static import RESERVED, frame_data  # noqa: E402
+
+J = ROOT.parent / "shared" / "data" / "grand-challenge-knee-jw"
+MODEL = J / "reducepoly_model" / "JW_All_Body_Model-scaled_forvisualization_leftright_v42.osim"
+TRIAL = {k: J / "reducepoly_subject_GC" / k / f"{k}_ngait_og5.mat" for k in ("IK", "GRF", "KCF")}
+ROWS = RESERVED + SECONDARY
+MID, LATE = (2.43, 2.60), (2.65, 2.85)
+
+OPENSIM_ARMS = r'''
+import json, sys, numpy as np, opensim as osim
+d = json.load(open(sys.argv[2]))
+model = osim.Model(sys.argv[1]); state = model.initSystem(); cs = model.getCoordinateSet()
+for i in range(cs.getSize()):
+    cs.get(i).setLocked(state, False)
+ms = model.getMuscles(); P = np.array(d["P"]); names = d["names"]
+out = np.zeros((len(P), len(d["rows"]), len(d["muscles"])))
+for n in range(len(P)):
+    for j, c in enumerate(names):
+        if cs.contains(c):
+            cs.get(c).setValue(state, float(P[n, j]), False)
+    cs.get("patfem_flexion").setValue(state, float(P[n, names.index("knee_flexion")]) + 1.57, False)
+    model.realizePosition(state)
+    for k, m in enumerate(d["muscles"]):
+        for j, c in enumerate(d["rows"]):
+            out[n, j, k] = ms.get(m).computeMomentArm(state, cs.get(c))
+json.dump(out.tolist(), open(sys.argv[3], "w"))
+'''
+
+
+def solve(Qc, R, A, F0, power=2, reserve_weights=None, contact_weight=0.0, scale=1000.0):
+    """Static optimisation over all frames: min sum a^power + sum w rho^2 (+ c (N_m + N_l)^2, N in BW)."""
+    N, nr, nm = R.shape
+    nres, nx = len(RESERVED), nm + 5 + len(RESERVED)
+    w = np.ones(nres) if reserve_weights is None else np.asarray(reserve_weights, float)
+    Bn = np.zeros((N, nr, nx))
+    Bn[:, :, :nm] = R * F0[None, None, :]
+    Bn[:, :, nm:nm + 5] = A.transpose(0, 2, 1) * scale
+    Bn[:, :nres, nm + 5:] = np.eye(nres)
+    n, i, j = np.nonzero(Bn)
+    B = sp.csc_matrix((Bn[n, i, j] / scale, (n * nr + i, n * nx + j)), shape=(N * nr, N * nx))
+    B = ca.DM(ca.Sparsity(B.shape[0], B.shape[1], B.indptr.tolist(), B.indices.tolist()), B.data)
+    x = ca.SX.sym("x", nx)
+    f = (ca.sumsqr(x[:nm]) if power == 2 else ca.sum1(x[:nm] ** power)) + ca.sum1(ca.DM(w) * x[nm + 5:] ** 2)
+    f += contact_weight * ((x[nm] + x[nm + 1]) * scale / BW) ** 2
+    X = ca.MX.sym("X", nx * N)
+    S = ca.nlpsol("s", "ipopt", {"x": X, "f": ca.sum2(ca.Function("f", [x], [f]).map(N)(ca.reshape(X, nx, N))),
+                                 "g": ca.mtimes(B, X) - ca.DM((Qc / scale).ravel())},
+                  {"ipopt.print_level": 0, "print_time": False, "ipopt.sb": "yes", "ipopt.tol": 1e-8})
+    lbx, ubx = np.full((nx, N), -np.inf), np.full((nx, N), np.inf)
+    lbx[:nm], ubx[:nm], lbx[nm:nm + 2] = 0.0, 1.0, 0.0
+    x0 = np.zeros((nx, N))
+    x0[:nm] = 0.05
+    sol = S(x0=x0.ravel("F"), lbx=lbx.ravel("F"), ubx=ubx.ravel("F"), lbg=0, ubg=0)
+    if not S.stats()["success"]:
+        raise RuntimeError(S.stats()["return_status"])
+    Xs = np.asarray(sol["x"]).reshape(nx, N, order="F")
+    return Xs[nm] * scale, Xs[nm + 1] * scale, Xs[nm + 5:].T
+
+
+def metrics(t, med, lat, res, meas) -> dict:
+    tm, mm, ml = meas
+    mm, ml = np.interp(t, tm, mm), np.interp(t, tm, ml)
+    out = {}
+    for k, y, m in (("medial", med, mm), ("lateral", lat, ml), ("total", med + lat, mm + ml)):
+        out[k] = {"rmse_bw": float(np.sqrt(np.mean((y - m) ** 2)) / BW),
+                  "r2": float(1 - np.sum((y - m) ** 2) / np.sum((m - m.mean()) ** 2)),
+                  "peak_error_bw": float((y.max() - m.max()) / BW)}
+    mid, late = (t > MID[0]) & (t < MID[1]), (t > LATE[0]) & (t < LATE[1])
+    out["midstance_lateral_bw"] = [float(lat[mid].mean() / BW), float(ml[mid].mean() / BW)]
+    out["late_total_peak_bw"] = [float((med + lat)[late].max() / BW), float((mm + ml)[late].max() / BW)]
+    out["peak_reserves_Nm"] = dict(zip(RESERVED, np.abs(res).max(0).round(2).tolist()))
+    return out
+
+
+def opensim_arms(gait, muscles):
+    """OpenSim's computeMomentArm of ``muscles`` about the 11 rows at the trial's frames (own process)."""
+    import importlib.util
+
+    if importlib.util.find_spec("opensim") is None:
+        return None
+    with tempfile.TemporaryDirectory() as tmp:
+        inp, out, code = Path(tmp) / "in.json", Path(tmp) / "out.json", Path(tmp) / "arms.py"
+        inp.write_text(json.dumps({"P": gait.states["p"].tolist(), "names": gait.coordinate_names,
+                                   "muscles": muscles, "rows": ROWS}))
+        code.write_text(OPENSIM_ARMS)
+        subprocess.run([sys.executable, str(code), str(MODEL), str(inp), str(out)], check=True, capture_output=True)
+        return np.array(json.loads(out.read_text()))
+
+
+def main(out_dir: Path):
+    global BW
+    clock = time.perf_counter()
+    cycle = {}
+
+    def select(plates, grf):
+        cycle["t"] = gait_cycle(grf, [p for p, s in plates.items() if s == "right"])
+        return cycle["t"]
+
+    gait = run_inverse_dynamics(MODEL, TRIAL["IK"], TRIAL["GRF"], select=select)
+    BW = sum(b.mass for b in gait.osim.bodies.values()) * float(np.linalg.norm(gait.osim.gravity))
+    paths = MusclePaths()
+    mus = paths.muscles
+    F0 = np.array([muscle_parameters(MODEL, mus)[m].max_isometric_force for m in mus])
+    Qc, R, A = frame_data(gait, paths, contact_matrix_function())
+    meas = read_measured(TRIAL["KCF"])
+    names, P = gait.coordinate_names, gait.states["p"]
+    Mp = passive_hip_moment(P[:, names.index("hip_flexion")], P[:, names.index("knee_flexion")])
+    Qp = Qc.copy()
+    Qp[:, ROWS.index("hip_flexion")] -= Mp
+    cheap_hip = np.ones(len(RESERVED))
+    cheap_hip[:3] = 1e-3
+    rows = [("C0", "baseline: ideal muscles, sum a^2, reserves 1 N m^-2, no passive hip moment", {}),
+            ("C1", "objective sum a^3 (Crowninshield & Brand 1981)", {"power": 3}),
+            ("C2a", "objective + contact-load term 0.1 (N_total/BW)^2 (as MocoJointReactionGoal)",
+             {"contact_weight": 0.1}),
+            ("C2b", "objective + contact-load term 1 (N_total/BW)^2", {"contact_weight": 1.0}),
+            ("C4", "diagnostic, not a model: hip reserves 1000x cheaper", {"reserve_weights": cheap_hip}),
+            ("C5", "passive hip flexion moment, Riener & Edrich 1999 (adopted)", {"Q": Qp})]
+    arms = opensim_arms(gait, mus)
+    if arms is not None:
+        Rg, Ra = R.copy(), R.copy()
+        for m in ("gasmed", "gaslat"):
+            Rg[:, :, mus.index(m)] = arms[:, :, mus.index(m)]
+        rows += [("C3a", "gastrocnemii: moment arms by OpenSim's computeMomentArm, not -dL/dq of the fitted length",
+                  {"R": Rg}),
+                 ("C3b", "every muscle: moment arms by OpenSim's computeMomentArm", {"R": arms}),
+                 ("C3a+C5", "gastrocnemius moment arms of C3a with the passive hip moment of C5", {"R": Rg, "Q": Qp})]
+        err = np.abs(arms - R).max(axis=0)                     # rows x muscles
+        worst = {c: {mus[k]: float(err[j, k]) for k in np.argsort(-err[j])[:3]} for j, c in enumerate(ROWS)}
+    else:
+        worst = None
+    results = {}
+    for key, text, opt in rows:
+        opt = dict(opt)
+        q, r_ = opt.pop("Q", Qc), opt.pop("R", R)
+        med, lat, res = solve(q, r_, A, F0, **opt)
+        results[key] = {"change": text, **metrics(gait.t, med, lat, res, meas)}
+        print(key, json.dumps({k: v for k, v in results[key].items() if k != "change"})[:200], flush=True)
+    out_dir.mkdir(parents=True, exist_ok=True)
+    (out_dir / "candidates.json").write_text(json.dumps({"trial": "ngait_og5", "body_weight_N": BW,
+                                                         "results": results, "moment_arm_error_m": worst,
+                                                         "passive_hip_range_Nm": [float(Mp.min()), float(Mp.max())],
+                                                         "wall_s": time.perf_counter() - clock}, indent=1))
+    lines = ["| | change | medial RMSE / R^2 / peak err | lateral RMSE / R^2 / peak err | total RMSE / R^2 / peak err "
+             "| mid-stance lateral (meas.) | late total peak (meas.) |", "|---|---|---|---|---|---|---|"]
+    for key, v in results.items():
+        cells = " | ".join(f"{v[k]['rmse_bw']:.2f} / {v[k]['r2']:.2f} / {v[k]['peak_error_bw']:+.2f}"
+                           for k in ("medial", "lateral", "total"))
+        lines.append(f"| {key} | {v['change']} | {cells} | {v['midstance_lateral_bw'][0]:.2f} "
+                     f"({v['midstance_lateral_bw'][1]:.2f}) | {v['late_total_peak_bw'][0]:.2f} "
+                     f"({v['late_total_peak_bw'][1]:.2f}) |")
+    (out_dir / "candidates.md").write_text("ngait_og5, BW = %.1f N, RMSE and peak error in BW "
+                                           "(`python scripts/knee_candidates.py`)\n\n" % BW + "\n".join(lines) + "\n")
+    print("\n".join(lines))
+
+
+BW = 614.25
+if __name__ == "__main__":
+    ap = argparse.ArgumentParser()
+    ap.add_argument("--out", default=str(ROOT / "results" / "knee"))
+    main(Path(ap.parse_args().out))

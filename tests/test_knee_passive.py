@@ -1,0 +1,57 @@
+"""The passive hip moment of the knee pipeline (issue 15): the published formula, its signs, and the
+hip flexion balance it changes."""
+import math
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from ocp_constraints.biomech.knee_passive import passive_hip_moment
+from ocp_constraints.errors import KneeError
+
+J = Path(__file__).resolve().parents[2] / "shared" / "data" / "grand-challenge-knee-jw"
+JW_MODEL = J / "reducepoly_model" / "JW_All_Body_Model-scaled_forvisualization_leftright_v42.osim"
+
+
+def test_riener_edrich_hip_moment_values_and_signs():
+    # Riener & Edrich 1999, hip: exp(1.4655 - 0.0034 K - 0.0750 H) - exp(1.3403 - 0.0226 K + 0.0305 H) + 8.072
+    assert passive_hip_moment(0.0, 0.0) == pytest.approx(math.exp(1.4655) - math.exp(1.3403) + 8.072, abs=1e-12)
+    assert passive_hip_moment(0.0, 0.0) == pytest.approx(8.5815, abs=1e-4)
+    # hip extended 20 degrees, knee flexed 30 degrees (the JW knee_flexion is negative in flexion)
+    h, k = math.radians(-20.0), math.radians(-30.0)
+    expected = math.exp(1.4655 - 0.0034 * 30 + 0.0750 * 20) - math.exp(1.3403 - 0.0226 * 30 - 0.0305 * 20) + 8.072
+    assert passive_hip_moment(h, k) == pytest.approx(expected, rel=1e-12)
+    # extension stretches the anterior structures: the flexion moment grows monotonically as the hip extends
+    hips = np.radians(np.linspace(30, -30, 61))
+    m = passive_hip_moment(hips, np.zeros_like(hips))
+    assert np.all(np.diff(m) > 0) and m[-1] > 40.0
+
+
+def test_the_muscles_carry_the_net_hip_moment_less_the_passive_one():
+    from ocp_constraints.biomech.gait import run_inverse_dynamics
+    from ocp_constraints.biomech.knee_model import contact_matrix_function
+    from ocp_constraints.biomech.knee_muscles import MusclePaths, muscle_parameters
+    from ocp_constraints.biomech.knee_static import RESERVED, frame_data, solve_static
+
+    g = run_inverse_dynamics(JW_MODEL, J / "reducepoly_subject_GC" / "IK" / "IK_ngait_og5.mat",
+                             J / "reducepoly_subject_GC" / "GRF" / "GRF_ngait_og5.mat",
+                             times=np.linspace(2.70, 2.80, 5))                      # terminal stance
+    paths = MusclePaths()
+    Qc, R, A = frame_data(g, paths, contact_matrix_function())
+    names, P = g.coordinate_names, g.states["p"]
+    Mp = passive_hip_moment(P[:, names.index("hip_flexion")], P[:, names.index("knee_flexion")])
+    assert np.all(P[:, names.index("hip_flexion")] < 0) and np.all(Mp > 10.0)      # hip extended: passive flexion
+    Qp = Qc.copy()
+    Qp[:, 0] -= Mp
+    F0 = np.array([muscle_parameters(JW_MODEL, paths.muscles)[m].max_isometric_force for m in paths.muscles])
+    r = solve_static(g.t, Qp, R, A, F0)
+    hip = RESERVED.index("hip_flexion")
+    muscles = np.einsum("nm,nm->n", R[:, hip, :], r.force) + r.reserve[:, hip]
+    np.testing.assert_allclose(muscles + Mp, g.generalized_force("hip_flexion"), atol=1e-6)
+
+
+def test_an_unknown_passive_model_is_refused():
+    from ocp_constraints.biomech.knee_pipeline import run_knee
+
+    with pytest.raises(KneeError, match="unknown passive hip model 'stiff' .*riener-edrich-1999, none"):
+        run_knee(JW_MODEL, "ik", "grf", passive_hip="stiff")
