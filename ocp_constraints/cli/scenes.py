@@ -27,6 +27,10 @@ def add_scene_parsers(sub) -> None:
     o.add_argument("--param", action="append", default=[], metavar="NAME=VALUE", help="override a scene parameter")
     o.add_argument("--no-plots", action="store_true", help="write no PNG plots")
     o.add_argument("--reintegrate", action="store_true", help="forward-simulate the optimal inputs and report the deviation")
+    o.add_argument("--starts", type=int, default=1, metavar="K",
+                   help="multi-start: solve from K guesses (the task's and K-1 perturbed), keep the best, "
+                        "report the local optima (default 1)")
+    o.add_argument("--seed", type=int, default=0, metavar="S", help="seed of the --starts perturbations (default 0)")
     o.set_defaults(handler=_solve)
 
 
@@ -90,7 +94,8 @@ def _solve(args) -> int:
     method = scheme_from_name(args.scheme, args.intervals, 3 if args.degree is None else args.degree)
     try:
         sol, summary = run_optimal_control(problem, args.scene, task, method, args.out, plots=not args.no_plots,
-                                           reintegrate=args.reintegrate)
+                                           reintegrate=args.reintegrate, starts=getattr(args, "starts", 1),
+                                           seed=getattr(args, "seed", 0))
     except OCPSolveError as exc:
         print(f"error: {exc}", file=sys.stderr)
         if args.out:
@@ -105,6 +110,10 @@ def _solve(args) -> int:
     for joint, work in summary["joint_work"].items():
         if abs(work) > 1e-9:
             print(f"  work done by joint '{joint}': {work:.6g} J")
+    if "multistart" in summary:
+        ms = summary["multistart"]
+        optima = ", ".join(f"{o['objective']:.8g} (x{o['count']})" for o in ms["optima"])
+        print(f"  {ms['succeeded']} of {ms['starts']} starts solved (seed {ms['seed']}); local optima: {optima}")
     if "reintegration" in summary:
         print(f"  re-integration of the optimal inputs: max state deviation {summary['reintegration']['max_state_deviation']:.2e}")
     if args.out:

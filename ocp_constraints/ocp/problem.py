@@ -189,7 +189,7 @@ class OptimalControlProblem:
                 self.t_final_bounds is not None, None if self.t_final_bounds is not None else self.t_final)
 
     def solve(self, method, ipopt_options: dict | None = None, warm_start=None, *, check: bool = True,
-              progress: bool | None = None):
+              progress: bool | None = None, starts: int = 1, seed: int = 0, client=None):
         """Transcribe with ``method`` (a :mod:`~ocp_constraints.ocp.schemes` scheme) and solve with IPOPT.
 
         Before IPOPT starts, :func:`~ocp_constraints.ocp.diagnostics.check_problem` looks for what
@@ -205,20 +205,35 @@ class OptimalControlProblem:
         Ctrl-C stops IPOPT cleanly at the next iteration and keeps the last iterate.
         Returns an :class:`~ocp_constraints.ocp.solution.OCPSolution`; a failed or interrupted solve
         raises :class:`~ocp_constraints.errors.OCPSolveError` carrying the last iterate.
+        ``starts`` > 1: multi-start from perturbed guesses drawn with ``seed``, the best local optimum
+        kept and the spread of the others in ``sol.starts``, ``sol.local_optima``, ``sol.multistart``;
+        with a Dask ``client`` the starts run on its workers
+        (:func:`~ocp_constraints.ocp.multistart.solve_multistart`).
         """
+        if starts != 1:
+            from .multistart import solve_multistart
+
+            return solve_multistart(self, method, starts, seed, client, ipopt_options, warm_start, check=check,
+                                    progress=progress)
         from .diagnostics import check_problem
+
+        self.structure_key()               # a model edited after the problem is refused before any check
+        if check:
+            check_problem(self, method)
+        return self.transcription(method).solve(ipopt_options or {}, warm_start, progress=progress)
+
+    def transcription(self, method):
+        """The NLP of this problem with ``method``, built once per method and :meth:`structure_key`."""
         from .transcription import transcribe
 
         key = (method.label, method.intervals, None if method.mesh is None else tuple(method.mesh),
                self.structure_key())
-        if check:
-            check_problem(self, method)
         cache = self.__dict__.setdefault("_transcriptions", {})
         if key not in cache:
             for old in [k for k in cache if k[:3] == key[:3]]:
                 del cache[old]     # the problem changed: its old NLP for this method is of no use
             cache[key] = transcribe(self, method)
-        return cache[key].solve(ipopt_options or {}, warm_start, progress=progress)
+        return cache[key]
 
 
 def _model_contents(model: Model) -> tuple:
