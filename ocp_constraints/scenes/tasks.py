@@ -17,10 +17,7 @@ from ..ocp.problem import OptimalControlProblem
 from ..ocp.solution import OCPSolution
 from ..errors import OCPSolveError
 from ..errors import interruption_reason
-from ..output.files import software_versions, write_csv, write_json
-from ..output.plots import write_plots
-from ..output.report import write_report
-from ..output.sto import write_sto
+from ..output.files import software_versions, write_csv, write_json, write_plots
 from ..output.run_folder import RunFolder
 from .registry import Scene
 from ..dynamics.simulate import SimulationOptions, simulate
@@ -39,7 +36,7 @@ def energy_balance(traj: Trajectory) -> dict[str, float | list]:
 
     ``relative_error`` is ``max |E(t) - E(0) - W(t)| / max(|E|, T)`` over the run.
     """
-    T, U = _mapped(traj.eqs.energy_function, traj.q, traj.u)   # = traj.energy(), one call for all samples
+    T, U = traj.energy()
     E = T + U
     W = traj.work.sum(axis=1) + traj.applied_work
     scale = max(float(np.abs(E).max()), float(T.max()), 1e-300)
@@ -48,28 +45,8 @@ def energy_balance(traj: Trajectory) -> dict[str, float | list]:
         "constraint_work": float(traj.work[-1].sum()),
         "applied_work": float(traj.applied_work[-1]),
         "relative_error": float(np.abs(E - E[0] - W).max() / scale),
-        "series": {"kinetic": T, "potential": U, "total": E, "work": W, "constraint_work": traj.work.sum(axis=1),
-                   "applied_work": np.asarray(traj.applied_work, float)},
+        "series": {"kinetic": T, "potential": U, "total": E, "work": W},
     }
-
-
-def _mapped(f, *columns) -> list[np.ndarray]:
-    """``f`` evaluated on every sample (rows of ``columns``) in one mapped call. Returns, per output,
-    samples x size (a scalar output: one value per sample); only column-vector outputs are meaningful."""
-    n = len(columns[0])
-    out = f.map(n)(*[np.asarray(c, float).reshape(n, -1).T for c in columns])
-    rows = [np.asarray(o).reshape(-1, n).T for o in (out if isinstance(out, (list, tuple)) else [out])]
-    return [r[:, 0] if r.shape[1] == 1 else r for r in rows]
-
-
-def residuals(traj: Trajectory) -> tuple[float, float]:
-    """``traj.residuals()`` (largest ``|phi|`` and ``|G u + e|``, drifts before projections included)
-    with the constraint functions evaluated on all samples in one mapped call."""
-    pos, vel = traj.max_drift
-    if not len(traj):
-        return pos, vel
-    _, _, phi, pi, _ = _mapped(traj.eqs.constraint_functions, traj.q, traj.u, traj.t, traj.inputs)
-    return max(pos, float(np.abs(phi).max(initial=0.0))), max(vel, float(np.abs(pi).max(initial=0.0)))
 
 
 def simulate_scene(scene: Scene, t_final: float | None = None, options: SimulationOptions | None = None) -> Trajectory:
@@ -120,7 +97,7 @@ def run_simulation(scene: Scene, scene_name: str, t_final: float | None = None, 
             raise
         error, traj, status = exc, partial, interruption_reason(exc)
     solved = time.perf_counter()
-    pos, vel = residuals(traj)
+    pos, vel = traj.residuals()
     energy = energy_balance(traj)
     drift_q, drift_u = traj.max_drift
     summary = {
@@ -152,8 +129,7 @@ def run_simulation(scene: Scene, scene_name: str, t_final: float | None = None, 
         series = energy["series"]
         inputs = {n: traj.sample(n) for n in scene.model.inputs}
         write_trajectory_results(folder, traj, summary, inputs, plots,
-                                 {"E": series["total"], "constraint_work": series["constraint_work"],
-                                  "applied_work": series["applied_work"]})
+                                 {"E = T + U": series["total"], "work of constraints and applied loads": series["work"]})
         if isinstance(error, KeyboardInterrupt):
             error.written_to = str(folder.path)
     if error is not None:
@@ -173,32 +149,13 @@ def write_trajectory_results(out: RunFolder | str | Path, traj: Trajectory, summ
         loads = traj.loads()
         write_csv(staging / "trajectory.csv", traj.t, states)
         write_csv(staging / "loads.csv", traj.t, loads)
-        write_sto(staging / "trajectory.sto", traj.t, states)       # for OpenSim (inDegrees=no)
-        write_sto(staging / "loads.sto", traj.t, loads)
         if plots:
-            summary["plots"] = write_plots(staging, traj.t, states, loads, summary["joints"], energy,
-                                           _drives(traj), list(inputs))
-            summary["report"] = "report.html"
+            summary["plots"] = write_plots(staging, traj.t, states, loads, summary["joints"], energy)
         write_json(staging / "summary.json", summary)
-        if plots:
-            write_report(staging, summary)
         return folder.commit()
     except BaseException:
         folder.abort()
         raise
-
-
-def _drives(traj) -> dict[str, tuple[np.ndarray, np.ndarray]]:
-    """Constraints with a prescribed rate (``e != 0``): multiplier and power ``-lambda e`` (eq. 27) per sample."""
-    import casadi as ca
-
-    eqs, t, q, _, lam, w = traj.mechanical_samples()
-    driven = [k for k, c in enumerate(eqs.constraints) if not ca.SX(c.e).is_zero()]
-    if not driven or not len(t):
-        return {}
-    e = np.asarray(ca.Function("e", [eqs.q, eqs.t, eqs.inputs], [eqs.e]).map(len(t))(
-        np.asarray(q).T, np.asarray(t)[None, :], np.asarray(w).reshape(len(t), -1).T)).T
-    return {eqs.constraint_names[k]: (lam[:, k], -lam[:, k] * e[:, k]) for k in driven}
 
 
 def run_optimal_control(problem: OptimalControlProblem, scene_name: str, task: str, method,
