@@ -24,7 +24,8 @@ Per system, with the multipliers of the forward dynamics (the KKT solve used by 
   with ``v_C`` computed here from the speeds and the reported point;
 * equipollence (eqs. 32-33): a twin model with every constraint rewritten at another
   material point of each body (``v_C -> v_A + omega x (x_C - x_A)``) has the same constraint
-  Jacobian and ``e``, its own forward dynamics gives the same multipliers and accelerations,
+  Jacobian and ``e``, its own forward dynamics gives the same multipliers and accelerations
+  (two solves of the KKT matrix ``K``: to 1e-10, or to ``10 cond(K) eps`` where that is larger),
   and its loads are the same force at ``X_A`` with the moment ``M_A = M_C + (x_C - x_A) x F``;
 * ``Phi = lambda A`` (eqs. 38-41): ``eqs.generalized_constraint_forces`` equals ``lambda_k A_k``
   with ``A = d(pi)/d(qdot)`` obtained here through the position Jacobians of the points and
@@ -59,7 +60,7 @@ N_SYSTEMS = int(os.environ.get("OCP_PROPERTY_SYSTEMS", "1000"))
 DRAWS = 40
 RTOL = 1e-10
 SEED = 20260412
-KKT_COND_LIMIT = 1e5      # counted and reported: above it, 1e-10 agreement of two solves is not guaranteed
+KKT_COND_LIMIT = 1e5      # counted and reported (ill-conditioned systems)
 KINDS = ["ball_and_socket", "revolute", "universal", "cylindrical", "prismatic", "planar", "weld", "point_on_line"]
 FREE_ROTATION = {"ball_and_socket", "revolute", "universal", "cylindrical", "planar", "point_on_line"}
 
@@ -300,10 +301,13 @@ def check_system(top: Topology, rng: np.random.Generator) -> tuple[list[str], bo
     Mm = np.asarray(eqs.mass_matrix_function(q))
     kkt_cond = np.linalg.cond(np.block([[Mm, -G.T], [G, np.zeros((eqs.nc, eqs.nc))]])) if eqs.nc else 1.0
     ill_conditioned = kkt_cond > KKT_COND_LIMIT
-    # the two solves of K agree to ~cond(K) eps (normwise): the multipliers relative to the largest one,
-    # the accelerations relative to their own size or to that of the constraint loads' term M^-1 G^T lambda
+    # Two solves of (rounding-different copies of) K agree to ~cond(K) eps, normwise: to 1e-10 below
+    # cond(K) = 4.5e4, to 10 cond(K) eps above (e.g. a drive nearly normal to the axis it turns).
+    # Multipliers relative to the largest one; accelerations relative to their own size or to that
+    # of the constraint loads' term M^-1 G^T lambda.
+    tol = max(1.0, 10 * kkt_cond * np.finfo(float).eps / RTOL)
     a_scale = max(np.abs(udot).max(), np.abs(G.T @ lam).max() / np.diag(Mm).min())
-    if not (close(lam2, lam, np.abs(lam).max()) and close(udot2, udot, a_scale)):
+    if not (close(lam2, lam, tol * np.abs(lam).max()) and close(udot2, udot, tol * a_scale)):
         failed.append(f"equipollence: multipliers differ by {np.abs(lam2 - lam).max():.3g}, accelerations "
                       f"by {np.abs(udot2 - udot).max():.3g} (cond(K) = {kkt_cond:.3g})")
     F2, M2, X2 = channel_loads(twin, q, u, t, lam)
