@@ -109,12 +109,13 @@ def drake_swing_up(N: int):
             "setting": f"Drake DirectCollocation(N={N})"}
 
 
-def pinocchio_pendulum(t_final: float, rtol: float):
-    """Pinocchio: the tilted rod on a revolute joint about E3; loads from RNEA's ``data.f``."""
+def pinocchio_pendulum(t_final: float, rtol: float, p: dict | None = None):
+    """Pinocchio: the tilted rod on a revolute joint about E3; loads from RNEA's ``data.f``.
+    ``p``: the scene's parameters (default its DEFAULTS)."""
     import pinocchio as pin
     from scipy.integrate import solve_ivp
 
-    p = load_scene_module("pendulum").DEFAULTS
+    p = load_scene_module("pendulum").DEFAULTS if p is None else p
     m, L, g = p["mass"], p["length"], p["gravity"]
     tilt = math.radians(p["tilt_deg"])
     started = time.perf_counter()
@@ -150,13 +151,14 @@ def pinocchio_pendulum(t_final: float, rtol: float):
             "build_s": built - started, "solve_s": solved - built, "setting": f"Pinocchio ABA+RNEA, DOP853 rtol={rtol:g}"}
 
 
-def sympy_sliding_disk(t_final: float, rtol: float):
-    """sympy.physics.mechanics LagrangesMethod with the contact multiplier, lambdified, DOP853."""
+def sympy_sliding_disk(t_final: float, rtol: float, p: dict | None = None):
+    """sympy.physics.mechanics LagrangesMethod with the contact multiplier, lambdified, DOP853.
+    ``p``: the scene's parameters (default its DEFAULTS)."""
     import sympy as sp
     from scipy.integrate import solve_ivp
     from sympy.physics import mechanics as me
 
-    p = load_scene_module("sliding_disk").DEFAULTS
+    p = load_scene_module("sliding_disk").DEFAULTS if p is None else p
     m, R, g = p["mass"], p["radius"], p["gravity"]
     started = time.perf_counter()
     x, y, z, psi, th, ph = me.dynamicsymbols("x y z psi theta phi")
@@ -200,3 +202,144 @@ def sympy_sliding_disk(t_final: float, rtol: float):
     return {"t": ts, "states": dict(zip(names, sol.y[:6])), "lambda": {"contact.n.lambda": lam_n},
             "build_s": built - started, "solve_s": solved - built, "setting": f"sympy LagrangesMethod + DOP853 rtol={rtol:g}",
             "n_lambda": len(lam)}
+
+
+# -- forward simulation side by side (issue 14): interleaved runs, medians ----------------------
+_OURS_SNIPPET = """
+import time, sys
+t = time.perf_counter()
+from ocp_constraints import SystemEquations, build_scene, consistent_state, simulate
+from ocp_constraints.dynamics.simulate import SimulationOptions
+s = build_scene({scene!r}); e = SystemEquations(s.model); q0, u0 = consistent_state(e, s.coordinates, s.rates)
+simulate(e, q0, u0, {t_final!r}, SimulationOptions(rtol={tol!r}, atol={tol!r}, compiled={compiled!r}))
+"""
+_PEER_SNIPPET = """import math, time
+import numpy as np
+{source}
+{fn}({t_final!r}, {tol!r}, {p!r})
+"""   # the peer's own code only: no import of this package in the peer's whole-process time
+
+
+def _ours_once(scene_name: str, t_final: float, tol: float, compiled: str):
+    from ..dynamics.simulate import SimulationOptions, simulate
+    from ..mechanics.equations import SystemEquations
+    from ..mechanics.state import consistent_state
+    from ..scenes.registry import build_scene
+
+    started = time.perf_counter()
+    scene = build_scene(scene_name)
+    eqs = SystemEquations(scene.model)
+    q0, u0 = consistent_state(eqs, scene.coordinates, scene.rates)
+    traj = simulate(eqs, q0, u0, t_final, SimulationOptions(rtol=tol, atol=tol, compiled=compiled))
+    return time.perf_counter() - started, traj
+
+
+def _whole_process(code: str) -> float:
+    import subprocess
+    import sys
+
+    started = time.perf_counter()
+    subprocess.run([sys.executable, "-c", code], check=True, capture_output=True)
+    return time.perf_counter() - started
+
+
+def forward_duel(scene: str = "pendulum", t_final: float = 10.0, runs: int = 3,
+                 ours=(1e-6, 1e-8, 1e-10, 1e-12, 1e-13, 1e-14), theirs=(1e-6, 1e-8, 1e-10, 1e-12),
+                 whole_process: bool = True, log=print) -> dict:
+    """Our forward simulation against the scene's peer (Pinocchio + DOP853 on ``pendulum``, sympy +
+    DOP853 on ``sliding_disk``), every setting run ``runs`` times interleaved (ours, then theirs, then
+    ours again ...) so that the machine's load falls on both alike; medians. In-process times: model
+    built, consistent start, simulation (ours); model built, DOP853, loads (theirs). Whole-process
+    times: a fresh Python running the same, imports included. Errors: max(state error, multiplier
+    error / load scale) against the independent reference (:mod:`.references`)."""
+    import inspect
+    import os
+    import statistics
+
+    from .references import integrator_reference, pendulum_reference
+
+    fn = {"pendulum": pinocchio_pendulum, "sliding_disk": sympy_sliding_disk}[scene]
+    variants = [(tol, c) for tol in ours for c in ("never", "always")]
+    _ours_once(scene, 0.05, 1e-8, "always")      # compiled libraries built once (not timed: "after the first load")
+    times: dict = {}
+    errors: dict = {}
+
+    def error_of(t, states, lams):
+        p = load_scene_module(scene).DEFAULTS
+        rf = pendulum_reference(p, t) if scene == "pendulum" else integrator_reference(scene, t)
+        scale = max(float(np.abs(v).max()) for v in rf["lambda"].values())
+        st = max(float(np.abs(states[k] - rf["states"][k]).max()) for k in rf["states"] if k in states)
+        return max(st, max(float(np.abs(lams[k] - rf["lambda"][k]).max()) for k in rf["lambda"]) / scale)
+
+    env_note = f"load average {os.getloadavg()[0]:.1f} on {os.cpu_count()} cores"
+    for rep in range(runs):
+        for tol, c in variants:
+            dt, traj = _ours_once(scene, t_final, tol, c)
+            times.setdefault(("ours", tol, c, "in"), []).append(dt)
+            if rep == 0:
+                cols = traj.sample_columns()
+                errors[("ours", tol, c)] = error_of(traj.t, cols, cols)
+            if whole_process:
+                code = _OURS_SNIPPET.format(scene=scene, t_final=t_final, tol=tol, compiled=c)
+                times.setdefault(("ours", tol, c, "whole"), []).append(_whole_process(code))
+        for tol in theirs:
+            r = fn(t_final, tol)
+            times.setdefault(("peer", tol, "", "in"), []).append(r["build_s"] + r["solve_s"])
+            if rep == 0:
+                errors[("peer", tol, "")] = error_of(r["t"], r["states"], r["lambda"])
+            if whole_process:
+                code = _PEER_SNIPPET.format(source=inspect.getsource(fn), fn=fn.__name__, t_final=t_final, tol=tol,
+                                            p=dict(load_scene_module(scene).DEFAULTS))
+                times.setdefault(("peer", tol, "", "whole"), []).append(_whole_process(code))
+        log(f"  round {rep + 1}/{runs} done ({env_note})")
+    med = {k: statistics.median(v) for k, v in times.items()}
+    rows = []
+    for tol in theirs:
+        target = errors[("peer", tol, "")]
+        row = {"peer_rtol": tol, "peer_error": target, "peer_in_s": med[("peer", tol, "", "in")],
+               "peer_whole_s": med.get(("peer", tol, "", "whole"))}
+        for kind in ("in", "whole") if whole_process else ("in",):
+            ok = [(med[("ours", t, c, kind)], t, c) for t, c in variants if errors[("ours", t, c)] <= target]
+            best = min(ok) if ok else None
+            row[f"ours_{kind}"] = None if best is None else {"rtol": best[1], "compiled": best[2], "s": best[0],
+                                                               "error": errors[("ours", best[1], best[2])]}
+            row[f"ratio_{kind}"] = None if best is None else best[0] / row[f"peer_{kind}_s"]
+        rows.append(row)
+    return {"scene": scene, "t_final": t_final, "runs": runs, "load": env_note, "rows": rows,
+            "ours": [{"rtol": t, "compiled": c, "error": errors[("ours", t, c)], "in_s": med[("ours", t, c, "in")],
+                      "whole_s": med.get(("ours", t, c, "whole"))} for t, c in variants],
+            "peer": [{"rtol": t, "error": errors[("peer", t, "")], "in_s": med[("peer", t, "", "in")],
+                      "whole_s": med.get(("peer", t, "", "whole"))} for t in theirs]}
+
+
+def duel_markdown(result: dict) -> str:
+    """The table of :func:`forward_duel`."""
+    head = (f"{result['scene']}, t = 0 ... {result['t_final']:g} s, medians of {result['runs']} interleaved runs "
+            f"({result['load']})\n\n| peer rtol | peer error | peer s (in / whole) | our cheapest at equal or better "
+            "error (in-process) | our error | our s | ratio in | ratio whole (our cheapest whole) |\n"
+            "|---|---|---|---|---|---|---|---|\n")
+    lines = []
+    for r in result["rows"]:
+        o, w = r["ours_in"], r.get("ours_whole")
+        whole = "" if r.get("ratio_whole") is None else f"{r['ratio_whole']:.2f} ({w['s']:.3f} s, rtol {w['rtol']:g} {w['compiled']})"
+        peer_whole = f"{r['peer_whole_s']:.3f}" if r.get("peer_whole_s") is not None else "-"
+        if o is None:
+            lines.append(f"| {r['peer_rtol']:g} | {r['peer_error']:.1e} | {r['peer_in_s']:.4f} / {peer_whole} | none | | | | {whole} |")
+        else:
+            lines.append(f"| {r['peer_rtol']:g} | {r['peer_error']:.1e} | {r['peer_in_s']:.4f} / {peer_whole} | rtol {o['rtol']:g}, "
+                         f"compiled {o['compiled']} | {o['error']:.1e} | {o['s']:.4f} | {r['ratio_in']:.2f} | {whole} |")
+    ours = "\n\n| our rtol | compiled | error | in-process s | whole process s |\n|---|---|---|---|---|\n" + "\n".join(
+        f"| {o['rtol']:g} | {o['compiled']} | {o['error']:.1e} | {o['in_s']:.4f} | "
+        f"{'' if o['whole_s'] is None else format(o['whole_s'], '.3f')} |" for o in result["ours"])
+    return head + "\n".join(lines) + ours + "\n"
+
+
+if __name__ == "__main__":   # python -m ocp_constraints.bench.peers [scene] [runs] [out.md]
+    import sys
+
+    res = forward_duel(sys.argv[1] if len(sys.argv) > 1 else "pendulum", runs=int(sys.argv[2]) if len(sys.argv) > 2 else 3)
+    text = duel_markdown(res)
+    print(text)
+    if len(sys.argv) > 3:
+        with open(sys.argv[3], "w") as f:
+            f.write(text)

@@ -13,6 +13,7 @@ be checked to integrator accuracy.
 """
 from __future__ import annotations
 
+from contextlib import ExitStack
 from dataclasses import dataclass
 from typing import Callable
 
@@ -23,9 +24,16 @@ from ..mechanics.equations import SystemEquations
 from ..errors import ModelError, SimulationError
 from ..mechanics.rotations import UnitQuaternion
 from ..errors import RunInterrupted, SingularConfigurationError, interruption_reason
+from .compiled import compiled, is_cached
+from ..output.signals import signal_mark, signal_since, watching_sigint
 from .preflight import check_initial_state, check_resources, input_function, state_vector
 from .trajectory import Trajectory
 from ..mechanics.state import project_state
+
+
+#: State size from which "auto" compiles the model functions (compile time vs run time, measured
+#: by scripts/compiled_break_even.py).
+COMPILE_ABOVE_NX = 10**9   # measured: compiling never paid within one run of the bench scenes
 
 
 @dataclass
@@ -42,19 +50,37 @@ class SimulationOptions:
     dt: float = 0.01
     rtol: float = 1e-12
     atol: float = 1e-12
-    projection_interval: float = 0.5
-    drift_tolerance: float = 1e-9
+    #: 2 s: each projection restarts CVODES (Adams from order 1); 0.5 s cost 1.2-2x the run time of
+    #: 2 s on the bench scenes at equal error (the drift check halves a segment where needed).
+    projection_interval: float = 2.0
+    #: None: ``max(1e-9, 100 max(rtol, atol))``, a drift the requested accuracy allows (a fixed 1e-9
+    #: made loose tolerances project, and restart CVODES, at every sample: slower than tight ones).
+    drift_tolerance: float | None = None
     max_steps: int = 500_000
     method: str = "adams"
     #: Bytes the run may use at its peak (None: 80% of the memory available at the start); a run
     #: estimated above it is refused with :class:`~ocp_constraints.errors.ResourceLimitError`.
     max_memory: float | None = None
+    #: "auto" (compiled model functions where compiling pays, or already cached), "always" or "never"
+    #: (CasADi's virtual machine); see :mod:`.compiled`.
+    compiled: str = "auto"
+
+    @property
+    def drift_limit(self) -> float:
+        """The drift tolerance in effect (see ``drift_tolerance``)."""
+        if self.drift_tolerance is not None:
+            return self.drift_tolerance
+        return max(1e-9, 100 * max(self.rtol, self.atol))
 
     def validate(self) -> None:
-        for name in ("dt", "rtol", "atol", "projection_interval"):
+        for name in ("dt", "rtol", "atol", "projection_interval", "drift_tolerance"):
             v = getattr(self, name)
+            if v is None and name == "drift_tolerance":
+                continue
             if not (isinstance(v, (int, float)) and np.isfinite(v) and v > 0):
                 raise ModelError(f"simulation option '{name}' must be a positive number, got {v!r}")
+        if self.compiled not in ("auto", "always", "never"):
+            raise ModelError(f"simulation option 'compiled' must be 'auto', 'always' or 'never', got {self.compiled!r}")
         if self.method not in ("adams", "bdf"):
             raise ModelError(f"simulation option 'method' must be 'adams' or 'bdf', got {self.method!r}")
 
@@ -82,7 +108,15 @@ class _Integrators:
         power = ca.vertcat(-lam * econ if e.nc else ca.MX(0, 1), applied)
         self.dae = {"x": ca.vertcat(q, u), "p": ca.vertcat(t0, h, w0, w1), "t": tau,
                     "ode": ca.vertcat(qdot, udot), "quad": power}
+        none = ca.MX.sym("none", 0)
+        dae = ca.Function("forward_dae", [tau, self.dae["x"], none, self.dae["p"], none],
+                          [ca.densify(self.dae["ode"]), ca.MX(0, 1), ca.densify(power), ca.MX(0, 1)],
+                          ca.dyn_in(), ca.dyn_out())
+        self.compile = _use_compiled(opts, dae)
+        # Compiled (with its Jacobian for CVODES's Newton iterations), or CasADi's VM.
+        self.dae_function = compiled(dae, with_jacobian=True) if self.compile else dae
         self._cache: dict[tuple[int, float], ca.Function] = {}
+        self._samples = _SampleFunctions(eqs, self.compile)
 
     def __call__(self, n: int, step: float | None = None) -> ca.Function:
         """``n`` samples ``step`` apart (default ``dt``; the last step of a run may be shorter)."""
@@ -91,7 +125,7 @@ class _Integrators:
         if (n, step) not in self._cache:
             grid = [step * (k + 1) for k in range(n)]
             self._cache[n, step] = ca.integrator(
-                f"forward_{n}", "cvodes", self.dae, 0.0, grid,
+                f"forward_{n}", "cvodes", self.dae_function, 0.0, grid,
                 {"abstol": o.atol, "reltol": o.rtol, "max_num_steps": o.max_steps,
                  # CVODES gives up once its step falls below 1e-13 of the segment (it only
                  # gets there where the rates blow up, e.g. at an Euler singularity); without
@@ -100,6 +134,47 @@ class _Integrators:
                  "linear_multistep_method": o.method},
             )
         return self._cache[n, step]
+
+
+def _use_compiled(opts: SimulationOptions, dae: ca.Function) -> bool:
+    """``opts.compiled``: "always", "never", or "auto" (a library already in the disk cache is
+    used; otherwise the model is compiled only where the compile time pays, see
+    ``COMPILE_ABOVE_NX``)."""
+    if opts.compiled in ("always", "never"):
+        return opts.compiled == "always"
+    return is_cached(dae, with_jacobian=True) or dae.size1_in(1) >= COMPILE_ABOVE_NX
+
+
+class _SampleFunctions:
+    """``(q, u, t, w, w') -> (u', lambda, singularity margins)`` over the columns of a segment, in
+    one (mapped) call: no per-sample Python work. A body's configuration is singular where its
+    margin falls below its tolerance (Euler angles: ``|g_1 . (g_2 x g_3)|``; quaternion: the norm)."""
+
+    def __init__(self, eqs: SystemEquations, compile: bool):
+        margins, tols = [], []
+        for b in eqs.bodies:
+            rot, r = b.rotation, b.rotation_parameters
+            if isinstance(rot, UnitQuaternion):
+                margins.append(ca.norm_2(r))
+                tols.append(1e-12)
+            else:
+                margins.append(ca.fabs(rot.basis_volume(r)))
+                tols.append(rot.singularity_tolerance)
+        self.tolerances = np.array(tols, float)
+        margin = ca.Function("margins", [eqs.q], [ca.vertcat(*margins)])
+        args = [ca.MX.sym(n, eqs.nq if n == "q" else eqs.nu if n == "u" else 1 if n == "t" else eqs.inputs.numel())
+                for n in ("q", "u", "t", "w", "rate")]
+        udot, lam = eqs.forward_dynamics(*args)
+        f = ca.Function("sample_values", args, [udot, lam, margin(args[0])])
+        self.function = compiled(f) if compile else f
+        self._maps: dict[int, ca.Function] = {}
+
+    def __call__(self, Q, U, T, W, R) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        m = Q.shape[1]
+        if m not in self._maps:
+            self._maps[m] = self.function.map(m) if m > 1 else self.function
+        out = self._maps[m](Q, U, T.reshape(1, m), W, R)
+        return tuple(np.asarray(o).reshape(-1, m) for o in out)
 
 
 def _failure_message(eqs: SystemEquations, q: np.ndarray, t0: float, t1: float, exc: Exception) -> str:
@@ -184,26 +259,41 @@ def simulate(
     q, u = np.asarray(q0, float).copy(), np.asarray(u0, float).copy()
     work = np.zeros(eqs.nc + 1)
 
-    def record(k: int, q, u, work, drift_q=0.0, drift_u=0.0) -> None:
-        start = 0
-        try:
-            for b in eqs.bodies:
-                n = b.q.numel()
-                b.check_singularity(q[start : start + n], f"at t = {times[k]:.6g}")
-                start += n
-        except SingularConfigurationError as exc:
-            raise traj.stop_early(str(exc)) from exc
-        w = input_at(times[k])
-        if k < n_steps:
-            rate = (input_at(times[k + 1]) - w) / (times[k + 1] - times[k])
-        else:
-            rate = (w - input_at(times[k - 1])) / (times[k] - times[k - 1])
-        udot, lam = eqs.forward_dynamics(q, u, times[k], w, rate)
-        traj.append(times[k], q, u, np.asarray(udot).ravel(), np.asarray(lam).ravel(), w, work[:-1], drift_q, drift_u,
-                    applied_work=work[-1])
+    samples = integrators._samples
 
+    def record(ks, Q, U, works, drift_q=0.0, drift_u=0.0) -> None:
+        """Samples ``ks`` (columns of ``Q``, ``U``, ``works``); the last gets the drifts."""
+        m = len(ks)
+        W = np.column_stack([input_at(times[k]) for k in ks]) if n_in else np.zeros((0, m))
+        R = np.zeros((n_in, m))
+        for j, k in enumerate(ks if n_in else ()):
+            if k < n_steps:
+                R[:, j] = (input_at(times[k + 1]) - W[:, j]) / (times[k + 1] - times[k])
+            else:
+                R[:, j] = (W[:, j] - input_at(times[k - 1])) / (times[k] - times[k - 1])
+        udot, lam, margin = samples(Q, U, times[list(ks)], W, R)
+        flagged = (margin < samples.tolerances[:, None]).any(axis=0)
+        for j in range(m):
+            if flagged[j]:  # near a singularity: the bodies' own check decides and words the message
+                start = 0
+                try:
+                    for b in eqs.bodies:
+                        n = b.q.numel()
+                        b.check_singularity(Q[start : start + n, j], f"at t = {times[ks[j]]:.6g}")
+                        start += n
+                except SingularConfigurationError as exc:
+                    raise traj.stop_early(str(exc)) from exc
+            last = j == m - 1
+            traj.append(times[ks[j]], Q[:, j], U[:, j], udot[:, j], lam[:, j], W[:, j], works[:-1, j],
+                        drift_q if last else 0.0, drift_u if last else 0.0, applied_work=works[-1, j])
+
+    # CasADi checks for Ctrl-C inside its calls and turns the KeyboardInterrupt into a RuntimeError
+    # of the call: signals are recorded (watching_sigint) so that such a failure is known for one.
+    mark = signal_mark()
+    watch = ExitStack()
+    watch.enter_context(watching_sigint())
     try:
-        record(0, q, u, work)
+        record([0], q[:, None], u[:, None], work[:, None])
         k = 0
         while k < n_steps:
             n = min(per_segment, n_steps - k)
@@ -217,6 +307,8 @@ def simulate(
             try:
                 res = integrators(n, step)(x0=np.concatenate([q, u]), p=np.concatenate([[times[k], step], w]))
             except RuntimeError as exc:
+                if signal_since(mark) is not None:   # not a failure: the run was interrupted
+                    raise RunInterrupted(signal_since(mark)) from None
                 if n > 1:
                     # Redo the segment one sample at a time, to keep every good sample and
                     # to find where (and why) the integration breaks down; no growing back,
@@ -231,28 +323,32 @@ def simulate(
             q_end, u_end = X[: eqs.nq, -1], X[eqs.nq :, -1]
             _, _, phi, pi, _ = eqs.constraint_functions(q_end, u_end, times[k + n], input_at(times[k + n]))
             drift_q, drift_u = float(np.abs(np.asarray(phi)).max(initial=0.0)), float(np.abs(np.asarray(pi)).max(initial=0.0))
-            if max(drift_q, drift_u) > opts.drift_tolerance and n > 1:
+            if max(drift_q, drift_u) > opts.drift_limit and n > 1:
                 # Drifted too far (a fast rotation, a long segment): integrate it again in
                 # halves. Nothing of it has been recorded yet.
                 per_segment = n // 2
                 continue
-            for j in range(n - 1):
-                record(k + j + 1, X[: eqs.nq, j], X[eqs.nq :, j], work + W[:, j])
             q, u, _, _ = project_state(eqs, q_end, u_end, times[k + n], input_at(times[k + n]))
+            X[: eqs.nq, -1], X[eqs.nq :, -1] = q, u   # the last sample is the projected state
+            record(range(k + 1, k + n + 1), X[: eqs.nq], X[eqs.nq :], work[:, None] + W, drift_q, drift_u)
             work = work + W[:, -1]
-            record(k + n, q, u, work, drift_q, drift_u)
-            if max(drift_q, drift_u) < opts.drift_tolerance / 16 and per_segment < longest:
+            if max(drift_q, drift_u) < opts.drift_limit / 16 and per_segment < longest:
                 per_segment = min(longest, 2 * per_segment)
             k += n
-    except KeyboardInterrupt as exc:
+    except (KeyboardInterrupt, RuntimeError) as exc:
         # Ctrl-C or the CLI's SIGTERM: keep every complete sample, say why the run ended.
+        name = signal_since(mark)
+        if not isinstance(exc, KeyboardInterrupt) and name is None:
+            raise
+        err = exc if isinstance(exc, RunInterrupted) else RunInterrupted(name or "SIGINT")
         traj.drop_incomplete_sample()
-        traj.success, traj.status = False, interruption_reason(exc)
-        err = exc if isinstance(exc, RunInterrupted) else RunInterrupted("SIGINT")
+        traj.success, traj.status = False, interruption_reason(err)
         err.partial = traj
         if err is exc:
             raise
         raise err from None
+    finally:
+        watch.close()
     traj.success, traj.status = True, "completed"
     return traj
 
