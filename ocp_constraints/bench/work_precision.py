@@ -171,7 +171,7 @@ def plot_work_precision(path: Path, scene: str, rows: list[Row]) -> None:
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    fig, axes = plt.subplots(1, 2, figsize=(12, 4.5))
+    fig, axes = plt.subplots(1, 3, figsize=(17, 4.5))
     for ax, attr, title in ((axes[0], "state_err", "state error (abs.)"), (axes[1], "lambda_err", "multiplier error (rel. to load scale)")):
         curves: dict[str, list[Row]] = {}
         for r in rows:
@@ -184,6 +184,22 @@ def plot_work_precision(path: Path, scene: str, rows: list[Row]) -> None:
         ax.set_ylabel(title)
         ax.grid(True, which="both", alpha=0.3)
     axes[1].legend(fontsize=6, ncol=2)
+    # Multiplier error against the tolerance asked for (simulations and simulating peers): where it
+    # stops falling is the floor.
+    ax = axes[2]
+    for label, kinds in (("ours", ("sim",)), ("peer", ("peer-sim",))):
+        by: dict[str, list] = {}
+        for r in rows:
+            if r.kind in kinds and np.isfinite(r.lambda_err) and r.lambda_err > 0:
+                by.setdefault(f"{label}: {r.scheme}", []).append((r.resolution, r.lambda_err))
+        for name, pts in sorted(by.items()):
+            ax.loglog(*zip(*sorted(pts)), "o-" if label == "ours" else "s--", label=name, ms=3)
+    if ax.lines:
+        ax.invert_xaxis()
+        ax.legend(fontsize=6)
+    ax.set_xlabel("integrator tolerance rtol = atol")
+    ax.set_ylabel("multiplier error (rel. to load scale)")
+    ax.grid(True, which="both", alpha=0.3)
     fig.suptitle(f"{scene}: work-precision")
     fig.tight_layout()
     fig.savefig(path, dpi=110)
