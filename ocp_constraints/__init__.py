@@ -61,6 +61,8 @@ _PUBLIC = {
     "build_scene": "scenes.registry",
     "build_task": "scenes.registry",
     "simulate_scene": "scenes.tasks",
+    "load_urdf": "mechanics.urdf",
+    "Robot": "mechanics.urdf_robot",
 }
 
 __all__ = sorted(_PUBLIC) + [name for name in dir() if name.endswith("Error")] + ["__version__"]

@@ -15,6 +15,8 @@ if TYPE_CHECKING:
 def write_gait_results(result: GaitResult, out, side: str = "right", plots: bool = True, inputs: dict | None = None) -> dict:
     """``summary.json``, ``loads.csv`` (DESIGN.md names plus ``<coordinate>_moment/_force``) and plots."""
     from ..output.files import software_versions, write_csv, write_json
+    from ..output.report import write_report
+    from ..output.sto import write_sto
     from ..output.run_folder import RunFolder
 
     run_folder = RunFolder(out)        # written whole: the previous run's files are replaced
@@ -22,6 +24,8 @@ def write_gait_results(result: GaitResult, out, side: str = "right", plots: bool
     leg = result.leg_joints(side)
     cols = {**result.generalized_force_columns(), **result.loads()}
     write_csv(folder / "loads.csv", result.t, cols)
+    write_sto(folder / "loads.sto", result.t, cols)           # OpenSim storage files (inDegrees=no)
+    write_sto(folder / "trajectory.sto", result.t, dict(zip(result.coordinate_names, result.states["p"].T)))
     summary = {
         "task": "gait inverse dynamics", "success": result.success, "status": result.status,
         "model": result.osim.path, "inputs": inputs or {},
@@ -39,43 +43,21 @@ def write_gait_results(result: GaitResult, out, side: str = "right", plots: bool
     }
     if plots:
         summary["plots"] = _plots(result, folder, leg)
+        summary["report"] = "report.html"
     write_json(folder / "summary.json", summary)
+    if plots:
+        write_report(folder, summary, title=f"gait inverse dynamics ({side} leg)", plots=summary["plots"])
     run_folder.commit()
     return summary
 
 
 def _plots(result: GaitResult, folder: Path, leg: list[str]) -> list[str]:
-    import io
+    """``gait_<joint>.png`` per leg joint: generalized forces, constraint force, moment and power."""
+    from ..output.joint_plots import write_gait_plots
 
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-
-    from ..output.files import write_atomic
-
-    written = []
+    loads = result.loads()
+    rows = []
     for j in leg:
-        coords = result.osim.joints[j].coordinates
-        fig, axes = plt.subplots(3, 1, figsize=(8, 8), sharex=True)
-        for c in coords:
-            axes[0].plot(result.t, result.generalized_force(c), label=c)
-        axes[0].set(ylabel="generalized force [N m or N]", title=f"{j}: generalized forces, load on the child at its point")
-        loads = result.loads()
         prefix = next((p for p in (f"{j}@{result.joints[j].child}", j) if f"{p}.F_x" in loads), None)
-        if prefix:
-            for a in "xyz":
-                axes[1].plot(result.t, loads[f"{prefix}.F_{a}"], label=f"F_{a}")
-                axes[2].plot(result.t, loads[f"{prefix}.M_{a}"], label=f"M_{a}")
-        axes[1].set(ylabel="constraint force [N]")
-        axes[2].set(xlabel="t [s]", ylabel="constraint moment [N m]")
-        for ax in axes:
-            ax.grid(alpha=0.3)
-            if ax.lines:
-                ax.legend(fontsize=7)
-        buf = io.BytesIO()
-        fig.savefig(buf, format="png", dpi=100)
-        plt.close(fig)
-        write_atomic(folder / f"gait_{j}.png", buf.getvalue())
-        written.append(f"gait_{j}.png")
-    return written
+        rows.append((j, prefix, {c: result.generalized_force(c) for c in result.osim.joints[j].coordinates}))
+    return write_gait_plots(folder, result.t, rows, loads)

@@ -1,4 +1,5 @@
-"""Writing results: ``summary.json``, ``trajectory.csv``, ``loads.csv`` and PNG plots.
+"""Writing results: ``summary.json``, ``trajectory.csv``, ``loads.csv`` (plots: :mod:`.plots`, OpenSim
+storage files: :mod:`.sto`, the HTML report: :mod:`.report`).
 
 The format is DESIGN.md's results contract (external checkers read these files).
 Every file is written whole: to a temporary file in the same folder, then renamed, so
@@ -95,51 +96,8 @@ def write_csv(path: Path, t: np.ndarray, columns: dict[str, np.ndarray]) -> None
     write_atomic(path, buf.getvalue().encode())
 
 
-def write_plots(out: Path, t: np.ndarray, states: dict[str, np.ndarray], loads: dict[str, np.ndarray],
-                joints: list[str], energy: dict[str, np.ndarray] | None = None) -> list[str]:
-    """PNG plots: coordinates, one figure per joint load channel, and energy. Returns file names."""
-    import matplotlib
+def write_plots(*args, **kwargs) -> list[str]:
+    """The PNG plots of a run: :func:`ocp_constraints.output.plots.write_plots` (the plotting lives there)."""
+    from .plots import write_plots as plots
 
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-
-    written = []
-
-    def save(fig, name: str) -> None:
-        buf = io.BytesIO()
-        fig.savefig(buf, format="png", dpi=110)
-        plt.close(fig)
-        write_atomic(out / name, buf.getvalue())
-        written.append(name)
-
-    coords = {k: v for k, v in states.items() if not k.endswith("_dot") and "." in k
-              and k.split(".")[-1] not in ("vbar_x", "vbar_y", "vbar_z", "omega_x", "omega_y", "omega_z")}
-    fig, ax = plt.subplots(figsize=(8, 4.5))
-    for k, v in coords.items():
-        ax.plot(t, v, label=k)
-    ax.set(xlabel="t [s]", ylabel="coordinate [m or rad]", title="coordinates")
-    ax.legend(fontsize=7, ncol=2)
-    ax.grid(alpha=0.3)
-    save(fig, "coordinates.png")
-
-    for prefix in joints:
-        fig, (a1, a2) = plt.subplots(2, 1, figsize=(8, 6), sharex=True)
-        for axis in "xyz":
-            a1.plot(t, loads[f"{prefix}.F_{axis}"], label=f"F_{axis}")
-            a2.plot(t, loads[f"{prefix}.M_{axis}"], label=f"M_{axis}")
-        a1.set(ylabel="constraint force [N]", title=f"{prefix}: F_c at its point, M_c (fixed basis)")
-        a2.set(xlabel="t [s]", ylabel="constraint moment [N m]")
-        for a in (a1, a2):
-            a.legend(fontsize=8)
-            a.grid(alpha=0.3)
-        save(fig, f"loads_{prefix.replace('@', '_at_')}.png")
-
-    if energy:
-        fig, ax = plt.subplots(figsize=(8, 4))
-        for k, v in energy.items():
-            ax.plot(t, v, label=k)
-        ax.set(xlabel="t [s]", ylabel="J", title="energy and constraint work")
-        ax.legend(fontsize=8)
-        ax.grid(alpha=0.3)
-        save(fig, "energy.png")
-    return written
+    return plots(*args, **kwargs)

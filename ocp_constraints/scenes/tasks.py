@@ -17,7 +17,10 @@ from ..ocp.problem import OptimalControlProblem
 from ..ocp.solution import OCPSolution
 from ..errors import OCPSolveError
 from ..errors import interruption_reason
-from ..output.files import software_versions, write_csv, write_json, write_plots
+from ..output.files import software_versions, write_csv, write_json
+from ..output.plots import write_plots
+from ..output.report import write_report
+from ..output.sto import write_sto
 from ..output.run_folder import RunFolder
 from .registry import Scene
 from ..dynamics.simulate import SimulationOptions, simulate
@@ -45,7 +48,8 @@ def energy_balance(traj: Trajectory) -> dict[str, float | list]:
         "constraint_work": float(traj.work[-1].sum()),
         "applied_work": float(traj.applied_work[-1]),
         "relative_error": float(np.abs(E - E[0] - W).max() / scale),
-        "series": {"kinetic": T, "potential": U, "total": E, "work": W},
+        "series": {"kinetic": T, "potential": U, "total": E, "work": W, "constraint_work": traj.work.sum(axis=1),
+                   "applied_work": np.asarray(traj.applied_work, float)},
     }
 
 
@@ -148,7 +152,8 @@ def run_simulation(scene: Scene, scene_name: str, t_final: float | None = None, 
         series = energy["series"]
         inputs = {n: traj.sample(n) for n in scene.model.inputs}
         write_trajectory_results(folder, traj, summary, inputs, plots,
-                                 {"E = T + U": series["total"], "work of constraints and applied loads": series["work"]})
+                                 {"E": series["total"], "constraint_work": series["constraint_work"],
+                                  "applied_work": series["applied_work"]})
         if isinstance(error, KeyboardInterrupt):
             error.written_to = str(folder.path)
     if error is not None:
@@ -168,13 +173,32 @@ def write_trajectory_results(out: RunFolder | str | Path, traj: Trajectory, summ
         loads = traj.loads()
         write_csv(staging / "trajectory.csv", traj.t, states)
         write_csv(staging / "loads.csv", traj.t, loads)
+        write_sto(staging / "trajectory.sto", traj.t, states)       # for OpenSim (inDegrees=no)
+        write_sto(staging / "loads.sto", traj.t, loads)
         if plots:
-            summary["plots"] = write_plots(staging, traj.t, states, loads, summary["joints"], energy)
+            summary["plots"] = write_plots(staging, traj.t, states, loads, summary["joints"], energy,
+                                           _drives(traj), list(inputs))
+            summary["report"] = "report.html"
         write_json(staging / "summary.json", summary)
+        if plots:
+            write_report(staging, summary, plots=summary["plots"])
         return folder.commit()
     except BaseException:
         folder.abort()
         raise
+
+
+def _drives(traj) -> dict[str, tuple[np.ndarray, np.ndarray]]:
+    """Constraints with a prescribed rate (``e != 0``): multiplier and power ``-lambda e`` (eq. 27) per sample."""
+    import casadi as ca
+
+    eqs, t, q, _, lam, w = traj.mechanical_samples()
+    driven = [k for k, c in enumerate(eqs.constraints) if not ca.SX(c.e).is_zero()]
+    if not driven or not len(t):
+        return {}
+    e = np.asarray(ca.Function("e", [eqs.q, eqs.t, eqs.inputs], [eqs.e]).map(len(t))(
+        np.asarray(q).T, np.asarray(t)[None, :], np.asarray(w).reshape(len(t), -1).T)).T
+    return {eqs.constraint_names[k]: (lam[:, k], -lam[:, k] * e[:, k]) for k in driven}
 
 
 def run_optimal_control(problem: OptimalControlProblem, scene_name: str, task: str, method,

@@ -1,0 +1,160 @@
+"""The plots of a run, in one place: what a reader compares by eye is on one pair of axes.
+
+* ``coordinates.png``: one panel per unit (positions in m, Euler angles in rad, quaternion
+  parameters), never metres and radians on one axis; ``speeds.png`` likewise (m/s, rad/s);
+  ``inputs.png`` the actuator inputs.
+* ``loads_<joint>.png``: per joint load channel, the constraint force ``F_c`` (components and
+  magnitude), the constraint moment ``M_c`` about the point it acts at, and its power
+  ``P = F_c . v_C + M_c . omega`` (paper eqs. 26-27) (:mod:`.joint_plots`).
+* ``drive_<constraint>.png``: for a constraint with a prescribed rate (``e != 0``, e.g. the
+  whirling body's motor ``g^1 . omega = Omega(t)``, sec. 3.4), its multiplier and its power
+  ``-lambda e`` (eq. 27): the motor torque ``lambda_4`` and ``lambda_4 Omega``.
+* ``energy.png``: ``E(t) - E(0)`` together with the work of the constraint loads and of the applied
+  loads since ``t = 0`` and their sum, on the same axes (they coincide when energy balances), and
+  the balance error ``E - E0 - W`` below.
+
+Every figure is written whole (:func:`~ocp_constraints.output.files.write_atomic`).
+"""
+from __future__ import annotations
+
+import io
+from pathlib import Path
+
+import numpy as np
+
+from .files import write_atomic
+
+#: Units of the coordinate and speed columns, by the column name's last part.
+GROUPS = [
+    ("position", "position [m]", ("x", "y", "z")),
+    ("angle", "Euler angle [rad]", ("psi", "theta", "phi")),
+    ("quaternion", "quaternion parameter [-]", ("qw", "qx", "qy", "qz")),
+]
+SPEED_GROUPS = [
+    ("velocity", "center-of-mass velocity [m/s]", ("vbar_x", "vbar_y", "vbar_z")),
+    ("angular", "angular velocity, angle rates [rad/s]", ("omega_x", "omega_y", "omega_z", "psi_dot", "theta_dot", "phi_dot")),
+]
+
+
+def pyplot():
+    """matplotlib's pyplot on the Agg backend (no display needed)."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    return plt
+
+
+def save(fig, out: Path, name: str, written: list[str], dpi: int = 110) -> None:
+    """Write ``fig`` as ``out/name`` (whole), close it and append the name to ``written``."""
+    plt = pyplot()
+    buf = io.BytesIO()
+    fig.savefig(buf, format="png", dpi=dpi)
+    plt.close(fig)
+    write_atomic(Path(out) / name, buf.getvalue())
+    written.append(name)
+
+
+def file_name(label: str) -> str:
+    """A file-name form of a joint or constraint name (``knee@tibia`` -> ``knee_at_tibia``)."""
+    return "".join(c if c.isalnum() or c in "._-" else "_" for c in label.replace("@", "_at_"))
+
+
+def grouped_panels(t, columns: dict[str, np.ndarray], groups, title: str):
+    """One panel per unit group that has columns; None if none has."""
+    plt = pyplot()
+    found = [(label, {k: v for k, v in columns.items() if "." in k and k.rsplit(".", 1)[1] in suffixes})
+             for _, label, suffixes in groups]
+    found = [(label, cols) for label, cols in found if cols]
+    if not found:
+        return None
+    fig, axes = plt.subplots(len(found), 1, figsize=(8, 2.6 + 2.2 * len(found)), sharex=True, squeeze=False)
+    for ax, (label, cols) in zip(axes[:, 0], found):
+        for k, v in cols.items():
+            ax.plot(t, v, label=k)
+        ax.set(ylabel=label)
+        ax.grid(alpha=0.3)
+        ax.legend(fontsize=7, ncol=3 if len(cols) > 6 else 2, loc="best")
+    axes[0, 0].set_title(title)
+    axes[-1, 0].set(xlabel="t [s]")
+    fig.tight_layout()
+    return fig
+
+
+def energy_figure(t, energy: dict[str, np.ndarray]):
+    """``E - E0`` and the work of the constraint and applied loads on one axis; the balance error below.
+
+    ``energy``: ``E`` (J), ``constraint_work`` and ``applied_work`` (J, from ``t = 0``).
+    """
+    plt = pyplot()
+    E = np.asarray(energy["E"], float)
+    Wc = np.asarray(energy.get("constraint_work", np.zeros_like(E)), float)
+    Wa = np.asarray(energy.get("applied_work", np.zeros_like(E)), float)
+    W = Wc + Wa
+    fig, (a1, a2) = plt.subplots(2, 1, figsize=(8, 6), sharex=True, gridspec_kw={"height_ratios": [3, 1.4]})
+    a1.plot(t, E - E[0], lw=2.5, label="E - E(0)  (E = T + U)")
+    a1.plot(t, W, "k--", lw=1.4, label="W = work of constraint + applied loads")
+    a1.plot(t, Wc, lw=1, label="work of the constraint loads (int -lambda e dt, eq. 27)")
+    if np.any(Wa):
+        a1.plot(t, Wa, lw=1, label="work of the applied loads (not gravity)")
+    a1.set(ylabel="J", title="energy balance: E - E(0) = W")
+    a1.legend(fontsize=8)
+    a2.plot(t, E - E[0] - W, color="C3")
+    a2.set(xlabel="t [s]", ylabel="E - E(0) - W [J]")
+    for ax in (a1, a2):
+        ax.grid(alpha=0.3)
+    fig.tight_layout()
+    return fig
+
+
+def drive_figure(t, name: str, lam, power):
+    """A driven constraint: its multiplier (the motor torque or force) and its power ``-lambda e`` (eq. 27)."""
+    plt = pyplot()
+    fig, (a1, a2) = plt.subplots(2, 1, figsize=(8, 5.5), sharex=True)
+    a1.plot(t, lam, color="C0")
+    a1.set(ylabel=f"{name}.lambda [N m or N]", title=f"{name}: multiplier of a prescribed motion and its power")
+    a2.plot(t, power, color="C1")
+    a2.set(xlabel="t [s]", ylabel="power -lambda e [W]")
+    for ax in (a1, a2):
+        ax.grid(alpha=0.3)
+    fig.tight_layout()
+    return fig
+
+
+def write_plots(out: Path, t: np.ndarray, states: dict[str, np.ndarray], loads: dict[str, np.ndarray],
+                joints: list[str], energy: dict[str, np.ndarray] | None = None,
+                drives: dict[str, tuple[np.ndarray, np.ndarray]] | None = None,
+                inputs: list[str] | None = None) -> list[str]:
+    """Every plot of a simulation or an optimal-control run (see module docs). Returns the file names.
+
+    ``states``: trajectory.csv's columns (inputs among them, named in ``inputs``); ``loads``: loads.csv's;
+    ``joints``: the load channels; ``energy``: see :func:`energy_figure`; ``drives``: constraint
+    name -> (multiplier, power ``-lambda e``) at ``t``.
+    """
+    from .joint_plots import joint_figure
+
+    written: list[str] = []
+    fig = grouped_panels(t, states, GROUPS, "coordinates")
+    if fig is not None:
+        save(fig, out, "coordinates.png", written)
+    fig = grouped_panels(t, states, SPEED_GROUPS, "speeds")
+    if fig is not None:
+        save(fig, out, "speeds.png", written)
+    if inputs:
+        plt = pyplot()
+        fig, ax = plt.subplots(figsize=(8, 4))
+        for n in inputs:
+            ax.plot(t, states[n], label=n)
+        ax.set(xlabel="t [s]", ylabel="input [N m or N]", title="actuator inputs")
+        ax.grid(alpha=0.3)
+        ax.legend(fontsize=7, ncol=2)
+        fig.tight_layout()
+        save(fig, out, "inputs.png", written)
+    for prefix in joints:
+        save(joint_figure(t, loads, prefix), out, f"loads_{file_name(prefix)}.png", written)
+    for name, (lam, power) in (drives or {}).items():
+        save(drive_figure(t, name, lam, power), out, f"drive_{file_name(name)}.png", written)
+    if energy:
+        save(energy_figure(t, energy), out, "energy.png", written)
+    return written
