@@ -26,8 +26,8 @@ import signal
 import sys
 
 from .._version import __version__
-from ..errors import OcpConstraintsError, interruption_reason
-from ..output.signals import interrupt_on_signals
+from ..errors import OcpConstraintsError, RunInterrupted, interruption_reason
+from ..output.signals import interrupt_on_signals, signal_mark, signal_since
 from .batch import add_batch_parser
 from .bench import add_bench_parser
 from .export import add_export_parser
@@ -57,15 +57,25 @@ def parser() -> argparse.ArgumentParser:
 
 def main(argv: list[str] | None = None) -> int:
     args = parser().parse_args(argv)
+    mark = signal_mark()
     with interrupt_on_signals():
         try:
             return args.handler(args)
-        except OcpConstraintsError as exc:
-            print(f"error: {exc}", file=sys.stderr)
-            return 2
         except KeyboardInterrupt as exc:   # SIGINT, or SIGTERM through the same handler
-            name = getattr(exc, "signal_name", "SIGINT")
-            written = getattr(exc, "written_to", None)
-            print(f"{interruption_reason(exc)}: " + (f"what was computed is written to {written} (summary.json has "
-                  "\"success\": false)" if written else "nothing had been computed, nothing written"), file=sys.stderr)
-            return 128 + int(getattr(signal, name, signal.SIGINT))
+            return _interrupted(exc)
+        except Exception as exc:
+            if signal_since(mark) is not None:   # the signal surfaced inside NumPy or CasADi as their own error
+                return _interrupted(RunInterrupted(signal_since(mark)))
+            if isinstance(exc, OcpConstraintsError):
+                print(f"error: {exc}", file=sys.stderr)
+                return 2
+            raise
+
+
+def _interrupted(exc: BaseException) -> int:
+    """One line on what an interrupted run left; the exit status 128 + the signal's number (130, 143)."""
+    name = getattr(exc, "signal_name", "SIGINT")
+    written = getattr(exc, "written_to", None)
+    print(f"{interruption_reason(exc)}: " + (f"what was computed is written to {written} (summary.json has "
+          "\"success\": false)" if written else "stopped before any results were written"), file=sys.stderr)
+    return 128 + int(getattr(signal, name, signal.SIGINT))

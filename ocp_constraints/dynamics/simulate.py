@@ -25,7 +25,7 @@ from ..errors import ModelError, SimulationError
 from ..mechanics.rotations import UnitQuaternion
 from ..errors import RunInterrupted, SingularConfigurationError, interruption_reason
 from .compiled import compiled, is_cached
-from ..output.signals import signal_mark, signal_since, watching_sigint
+from ..output.signals import polling, raise_if_signalled, signal_mark, signal_since, watching_sigint
 from .preflight import check_initial_state, check_resources, input_function, state_vector
 from .trajectory import Trajectory
 from ..mechanics.state import project_state
@@ -287,15 +287,17 @@ def simulate(
             traj.append(times[ks[j]], Q[:, j], U[:, j], udot[:, j], lam[:, j], W[:, j], works[:-1, j],
                         drift_q if last else 0.0, drift_u if last else 0.0, applied_work=works[-1, j])
 
-    # CasADi checks for Ctrl-C inside its calls and turns the KeyboardInterrupt into a RuntimeError
-    # of the call: signals are recorded (watching_sigint) so that such a failure is known for one.
+    # Ctrl-C (and the CLI's SIGTERM) are recorded, not raised, while the loop runs, and raised between
+    # segments: a KeyboardInterrupt inside a CasADi or NumPy call would come out as their own error.
     mark = signal_mark()
     watch = ExitStack()
     watch.enter_context(watching_sigint())
+    watch.enter_context(polling())
     try:
         record([0], q[:, None], u[:, None], work[:, None])
         k = 0
         while k < n_steps:
+            raise_if_signalled(mark)
             n = min(per_segment, n_steps - k)
             step = opts.dt
             if short_last and k + n == n_steps:   # the shorter last step is integrated on its own
@@ -316,6 +318,7 @@ def simulate(
                     per_segment = longest = 1
                     continue
                 raise traj.stop_early(_failure_message(eqs, q, times[k], times[k + 1], exc)) from exc
+            raise_if_signalled(mark)   # a signal during the call: its result is not used
             X = np.asarray(res["xf"]).reshape(eqs.nq + eqs.nu, n)
             W = np.asarray(res["qf"]).reshape(eqs.nc + 1, n)  # constraint works, then applied loads
             if not np.all(np.isfinite(X)):

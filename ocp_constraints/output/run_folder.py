@@ -139,6 +139,8 @@ def _files_named_by_summary(summary: Path) -> set[str]:
         return set()
     names = {SUMMARY, "trajectory.csv", "loads.csv"}
     names.update(n for n in data.get("plots") or [] if isinstance(n, str))
+    if isinstance(data.get("report"), str):
+        names.add(data["report"])
     if str(data.get("task", "")).startswith("gait"):
         names.update(f"gait_{j}.png" for j in data.get("leg_joints") or {})
     if str(data.get("task", "")).startswith("knee"):

@@ -9,6 +9,13 @@ stops at the last complete sample) and the results writer writes it with ``"succ
 (:func:`signals_deferred`) a first signal is held until every file is in place; a second one
 aborts the commit (the folder keeps the previous run's files).
 
+A ``KeyboardInterrupt`` raised from a signal handler lands in whatever Python code runs at that
+moment, and C extensions that call back into Python turn it into their own error (NumPy: a
+``SystemError`` from ``DM.__array__``; CasADi: a ``RuntimeError`` of the call). So code that can
+stop at safe points runs inside :func:`polling`: there the handler only records the signal, and
+the code raises it with :func:`raise_if_signalled` between its steps (``simulate`` does, once per
+segment). The command line also treats any error that follows a signal as the interruption.
+
 CasADi's ``nlpsol`` (3.8) catches a ``KeyboardInterrupt`` raised while IPOPT runs and returns with
 status ``NonIpopt_Exception_Thrown`` instead of raising it (checked with the installed CasADi);
 :func:`signal_mark` and :func:`signal_since` tell whether a signal arrived meanwhile, and
@@ -26,6 +33,7 @@ from ..errors import RunInterrupted
 _SIGNALS = (signal.SIGINT, signal.SIGTERM)
 _received: list[str] = []          # every signal our handler saw, in order
 _defer = {"depth": 0, "held": None}
+_poll = {"depth": 0}
 
 
 def _handler(signum, frame) -> None:  # noqa: ARG001 - the signal module's signature
@@ -34,6 +42,8 @@ def _handler(signum, frame) -> None:  # noqa: ARG001 - the signal module's signa
     if _defer["depth"] and _defer["held"] is None:
         _defer["held"] = name          # raised when the results are in place
         return
+    if _poll["depth"]:
+        return                         # raised by raise_if_signalled at the next safe point
     raise RunInterrupted(name)
 
 
@@ -110,3 +120,20 @@ def call_interruptibly(function, *args, **kwargs):
     if name is not None:
         raise RunInterrupted(name)
     return out
+
+
+@contextmanager
+def polling() -> Iterator[None]:
+    """Inside the block, SIGINT/SIGTERM are only recorded; call :func:`raise_if_signalled` at safe points."""
+    _poll["depth"] += 1
+    try:
+        yield
+    finally:
+        _poll["depth"] -= 1
+
+
+def raise_if_signalled(mark: int) -> None:
+    """Raise :class:`RunInterrupted` if a signal arrived after ``mark`` (see :func:`signal_mark`)."""
+    name = signal_since(mark)
+    if name is not None:
+        raise RunInterrupted(name)
