@@ -30,6 +30,7 @@ import numpy as np
 
 from ..dynamics.result import Result
 from ..errors import KneeError
+from ..output.signals import call_interruptibly
 from .knee_contact import KNEE_COORDINATES
 from .knee_model import CONTACT
 from .knee_muscles import PRIMARY, SECONDARY, MusclePaths
@@ -180,7 +181,8 @@ def solve_static(t, Qc, R, A, F0, muscles_on: bool = True, contact_nonnegative: 
         lbx[nm:nm + 2] = 0.0
     x0 = np.zeros((nx, N))
     x0[:nm] = 0.05 if muscles_on else 0.0
-    sol = solver(x0=x0.ravel(order="F"), lbx=lbx.ravel(order="F"), ubx=ubx.ravel(order="F"), lbg=0, ubg=0)
+    sol = call_interruptibly(solver, x0=x0.ravel(order="F"), lbx=lbx.ravel(order="F"),
+                             ubx=ubx.ravel(order="F"), lbg=0, ubg=0)   # Ctrl-C: RunInterrupted, not a failure
     status = solver.stats()["return_status"]
     Xs = np.asarray(sol["x"]).reshape(nx, N, order="F")
     Xs[nm:nm + 5] *= LOAD_SCALE

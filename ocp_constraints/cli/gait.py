@@ -33,6 +33,9 @@ def cli_gait(args) -> int:
     from ..biomech.gait import run_inverse_dynamics
     from ..biomech.gait_report import write_gait_results
 
+    from ..output.signals import signal_mark
+
+    mark = signal_mark()
     try:
         cutoff = None if getattr(args, "no_filter", False) else args.cutoff
         result = run_inverse_dynamics(args.model, args.motion, args.grf, args.start, args.end, cutoff)
@@ -42,6 +45,15 @@ def cli_gait(args) -> int:
     except OcpConstraintsError as exc:
         print(f"error: {exc}", file=sys.stderr)
         return 2
+    except BaseException as exc:   # SIGINT/SIGTERM before the results were complete: say so in --out
+        from ..output.run_folder import write_interrupted_run
+        from ..output.signals import as_interruption
+
+        stop = as_interruption(exc, mark)
+        if stop is None:
+            raise
+        write_interrupted_run(args.out, "gait inverse dynamics", stop, {k: str(v) for k, v in vars(args).items() if k != "handler"})
+        raise stop from None
     for note in (summary.get("timing") or {}).get("notes", []) + [v for k, v in (summary.get("angles") or {}).items()
                                                                    if k == "angle_unit_note"]:
         print(f"note: {note}", file=sys.stderr)

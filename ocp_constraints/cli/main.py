@@ -76,6 +76,6 @@ def _interrupted(exc: BaseException) -> int:
     """One line on what an interrupted run left; the exit status 128 + the signal's number (130, 143)."""
     name = getattr(exc, "signal_name", "SIGINT")
     written = getattr(exc, "written_to", None)
-    print(f"{interruption_reason(exc)}: " + (f"what was computed is written to {written} (summary.json has "
+    print(f"{interruption_reason(exc)}: " + (f"the run so far is written to {written} (summary.json has "
           "\"success\": false)" if written else "stopped before any results were written"), file=sys.stderr)
     return 128 + int(getattr(signal, name, signal.SIGINT))

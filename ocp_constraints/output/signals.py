@@ -137,3 +137,12 @@ def raise_if_signalled(mark: int) -> None:
     name = signal_since(mark)
     if name is not None:
         raise RunInterrupted(name)
+
+
+def as_interruption(exc: BaseException, mark: int) -> BaseException | None:
+    """``exc`` itself if it is a ``KeyboardInterrupt``; a :class:`RunInterrupted` if a signal arrived after
+    ``mark`` (the error is then what the signal became inside NumPy or CasADi); else None."""
+    if isinstance(exc, KeyboardInterrupt):
+        return exc
+    name = signal_since(mark)
+    return RunInterrupted(name) if name is not None else None
