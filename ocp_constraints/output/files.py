@@ -94,10 +94,3 @@ def write_csv(path: Path, t: np.ndarray, columns: dict[str, np.ndarray]) -> None
     buf = io.StringIO()
     np.savetxt(buf, data, delimiter=",", header=",".join(names), comments="", fmt="%.17g")
     write_atomic(path, buf.getvalue().encode())
-
-
-def write_plots(*args, **kwargs) -> list[str]:
-    """The PNG plots of a run: :func:`ocp_constraints.output.plots.write_plots` (the plotting lives there)."""
-    from .plots import write_plots as plots
-
-    return plots(*args, **kwargs)

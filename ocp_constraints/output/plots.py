@@ -5,7 +5,7 @@
   ``inputs.png`` the actuator inputs.
 * ``loads_<joint>.png``: per joint load channel, the constraint force ``F_c`` (components and
   magnitude), the constraint moment ``M_c`` about the point it acts at, and its power
-  ``P = F_c . v_C + M_c . omega`` (paper eqs. 26-27) (:mod:`.joint_plots`).
+  ``P = F_c . v_C + M_c . omega`` (paper eqs. 26-27); gait and knee figures: :mod:`.joint_plots`.
 * ``drive_<constraint>.png``: for a constraint with a prescribed rate (``e != 0``, e.g. the
   whirling body's motor ``g^1 . omega = Omega(t)``, sec. 3.4), its multiplier and its power
   ``-lambda e`` (eq. 27): the motor torque ``lambda_4`` and ``lambda_4 Omega``.
@@ -122,6 +122,55 @@ def drive_figure(t, name: str, lam, power):
     return fig
 
 
+def _vector_panel(ax, t, loads: dict, prefix: str, kind: str, ylabel: str) -> None:
+    comps = [loads.get(f"{prefix}.{kind}_{a}") for a in "xyz"]
+    if any(c is None for c in comps):
+        return
+    for a, c in zip("xyz", comps):
+        ax.plot(t, c, lw=1.2, label=f"{kind}_{a}")
+    ax.plot(t, np.sqrt(sum(np.asarray(c, float) ** 2 for c in comps)), "k", lw=1.8, alpha=0.7, label=f"|{kind}|")
+    ax.set(ylabel=ylabel)
+
+
+def joint_figure(t, loads: dict[str, np.ndarray], prefix: str, extra=None, title: str | None = None):
+    """``F_c`` at the joint's point, ``M_c`` about it (fixed basis) and the power ``P`` of one load channel.
+
+    ``extra``: an optional ``(ylabel, {label: values})`` drawn in a first panel (e.g. the generalized
+    forces of a gait joint's coordinates).
+    """
+    plt = pyplot()
+    n = 3 + (extra is not None)
+    fig, axes = plt.subplots(n, 1, figsize=(8, 2.3 * n + 1.0), sharex=True)
+    axes = list(axes)
+    if extra is not None:
+        ylabel, series = extra
+        ax = axes.pop(0)
+        for k, v in series.items():
+            ax.plot(t, v, label=k)
+        ax.set(ylabel=ylabel)
+    _vector_panel(axes[0], t, loads, prefix, "F", "constraint force F_c [N]")
+    _vector_panel(axes[1], t, loads, prefix, "M", "constraint moment M_c [N m]")
+    power = loads.get(f"{prefix}.power")
+    if power is not None:
+        axes[2].plot(t, power, color="C3", label="P = F_c . v_C + M_c . omega")
+    axes[2].set(xlabel="t [s]", ylabel="power P [W]")
+    scale = max([1.0] + [float(np.abs(np.asarray(ln.get_ydata(), float)).max(initial=0.0))
+                         for ax in axes[:2] for ln in ax.lines])
+    for ax, what in zip(axes, ("F_c", "M_c", "P")):
+        peak = max([float(np.abs(np.asarray(ln.get_ydata(), float)).max(initial=0.0)) for ln in ax.lines] or [0.0])
+        if ax.lines and peak < 1e-9 * scale:       # zero to round-off (e.g. a hinge's power, eq. 27): say so
+            ax.set_ylim(-1, 1)
+            ax.text(0.5, 0.5, f"{what} = 0 to round-off (largest |value| {peak:.1e})", transform=ax.transAxes,
+                    ha="center", va="center", fontsize=9, color="0.3")
+    for ax in fig.axes:
+        ax.grid(alpha=0.3)
+        if ax.lines:
+            ax.legend(fontsize=7, ncol=4, loc="best")
+    fig.axes[0].set_title(title or f"joint {prefix}: load on the body at its point (fixed basis), eqs. 26-27")
+    fig.tight_layout()
+    return fig
+
+
 def write_plots(out: Path, t: np.ndarray, states: dict[str, np.ndarray], loads: dict[str, np.ndarray],
                 joints: list[str], energy: dict[str, np.ndarray] | None = None,
                 drives: dict[str, tuple[np.ndarray, np.ndarray]] | None = None,
@@ -132,8 +181,6 @@ def write_plots(out: Path, t: np.ndarray, states: dict[str, np.ndarray], loads: 
     ``joints``: the load channels; ``energy``: see :func:`energy_figure`; ``drives``: constraint
     name -> (multiplier, power ``-lambda e``) at ``t``.
     """
-    from .joint_plots import joint_figure
-
     written: list[str] = []
     fig = grouped_panels(t, states, GROUPS, "coordinates")
     if fig is not None:
