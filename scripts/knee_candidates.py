@@ -1,11 +1,12 @@
 """Issue 15: the knee's modelling candidates, one at a time, measured against the eTibia loads.
 
-    python scripts/knee_candidates.py [--out results/knee]
+    python scripts/knee_candidates.py [--out results/knee] [--plot-only]
 
 Runs the inverse dynamics of ngait_og5 once, then the static optimisation with one change
 at a time (and the adopted combination), and writes ``candidates.md`` / ``candidates.json``:
 RMSE (BW), R^2 and peak error per compartment, the mean lateral force in mid-stance
-(2.43-2.60 s) and the late-stance total peak (2.65-2.85 s), the peak reserves. The measured
+(2.43-2.60 s) and the late-stance total peak (2.65-2.85 s), the peak reserves; and ``before_after.png`` from the ``knee`` runs in
+``<out>/before`` and ``<out>`` (the README's commands). The measured
 loads are used here for the table only; nothing is fitted to them.
 
 Candidates that need OpenSim (the muscles' moment arms by OpenSim's own
@@ -190,8 +191,47 @@ def main(out_dir: Path):
     print("\n".join(lines))
 
 
+def plot_before_after(out_dir: Path) -> Path:
+    """``before_after.png``: medial, lateral, total of ``<out>/before/loads.csv`` (issue 14's model) and
+    ``<out>/loads.csv`` (with the passive hip moment) against the measured loads."""
+    import csv
+
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    def load(folder):
+        rows = list(csv.DictReader(open(folder / "loads.csv")))
+        return (np.array([float(r["t"]) for r in rows]),
+                *(np.array([float(r[c]) for r in rows]) for c in ("N_medial", "N_lateral")))
+
+    tm, mm, ml = read_measured(TRIAL["KCF"])
+    runs = {"before (no passive hip moment)": load(out_dir / "before"), "after (passive hip moment)": load(out_dir)}
+    fig, axes = plt.subplots(3, 1, figsize=(8, 9), sharex=True)
+    for ax, k in zip(axes, ("medial", "lateral", "total")):
+        for (label, (t, m, l)), style in zip(runs.items(), (":", "-")):
+            y = {"medial": m, "lateral": l, "total": m + l}[k]
+            ax.plot(t, y / BW, style, label=label)
+        keep = (tm >= t[0]) & (tm <= t[-1])
+        ax.plot(tm[keep], {"medial": mm, "lateral": ml, "total": mm + ml}[k][keep] / BW, "k--", label="measured (eTibia)")
+        ax.set(ylabel=f"{k} [BW]")
+        ax.grid(alpha=0.3)
+        ax.legend(fontsize=8)
+    axes[0].set(title="ngait_og5: knee contact loads, static optimisation")
+    axes[-1].set(xlabel="t [s]")
+    path = out_dir / "before_after.png"
+    fig.savefig(path, dpi=100)
+    plt.close(fig)
+    return path
+
+
 BW = 614.25
 if __name__ == "__main__":
     ap = argparse.ArgumentParser()
     ap.add_argument("--out", default=str(ROOT / "results" / "knee"))
-    main(Path(ap.parse_args().out))
+    ap.add_argument("--plot-only", action="store_true", help="only before_after.png from the two runs' loads.csv")
+    args = ap.parse_args()
+    if not args.plot_only:
+        main(Path(args.out))
+    print(plot_before_after(Path(args.out)))

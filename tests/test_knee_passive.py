@@ -55,3 +55,14 @@ def test_an_unknown_passive_model_is_refused():
 
     with pytest.raises(KneeError, match="unknown passive hip model 'stiff' .*riener-edrich-1999, none"):
         run_knee(JW_MODEL, "ik", "grf", passive_hip="stiff")
+
+
+def test_comparison_reports_r2_and_rmse_in_body_weights():
+    from ocp_constraints.biomech.knee_pipeline import compare
+
+    t = np.linspace(0.0, 1.0, 5)
+    measured = (t, np.array([0.0, 100.0, 200.0, 100.0, 0.0]), np.full(5, 50.0))
+    out = compare(t, {"medial": measured[1] + 10.0}, measured, bw=500.0)["medial"]
+    # SSE = 5 * 10^2 = 500; SST = sum((m - 80)^2) = 6400 + 400 + 14400 + 400 + 6400 = 28000
+    assert out["r2"] == pytest.approx(1 - 500 / 28000, rel=1e-12)
+    assert out["rmse_bw"] == pytest.approx(10.0 / 500.0, rel=1e-12) and out["peak_error_bw"] == pytest.approx(0.02)

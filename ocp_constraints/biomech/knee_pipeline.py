@@ -10,6 +10,7 @@ are converted with 4.4482216153 N/lbf and expressed in body weights (model mass 
 from __future__ import annotations
 
 import time
+from pathlib import Path
 
 import numpy as np
 
@@ -39,25 +40,6 @@ def gait_cycle(grf, plates_of_right: list[str], name=None) -> tuple[float, float
     return onsets[0], onsets[1]
 
 
-def gait_phases(grf, plates_of_right: list[str], t0: float, t1: float) -> list[tuple[float, float, str]]:
-    """``(start, end, "stance" | "swing")`` intervals of the right foot in ``t0 ... t1`` (s): stance where
-    its plates' vertical force exceeds 20 N (the threshold of :func:`gait_cycle`)."""
-    from .opensim_files import grf_plates
-
-    loaded = np.zeros(len(grf.time), bool)
-    for pl in grf_plates(grf):
-        if pl.name in plates_of_right:
-            loaded |= pl.force[:, 1] > 20.0
-    keep = (grf.time >= t0) & (grf.time <= t1)
-    t, on = grf.time[keep], loaded[keep]
-    out, start = [], 0
-    for i in range(1, len(t) + 1):
-        if i == len(t) or on[i] != on[start]:
-            out.append((float(t[start]), float(t[min(i, len(t) - 1)]), "stance" if on[start] else "swing"))
-            start = i
-    return out
-
-
 def read_measured(path) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Time (s), medial and lateral measured contact force (N) from a KCF file."""
     from .opensim_files import read_forces
@@ -76,13 +58,14 @@ def read_measured(path) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
 
 
 def compare(t, predicted: dict, measured, bw: float) -> dict:
-    """RMSE (BW), Pearson r and peak error (BW) per channel, measured interpolated to ``t``."""
+    """RMSE (BW), Pearson r, R^2 (1 - SSE/SST) and peak error (BW) per channel, measured interpolated to ``t``."""
     tm, med, lat = measured
     ref = {"medial": med, "lateral": lat, "total": med + lat}
     out = {}
     for k, y in predicted.items():
         m = np.interp(t, tm, ref[k])
         out[k] = {"rmse_bw": float(np.sqrt(np.mean((y - m) ** 2)) / bw), "r": float(np.corrcoef(y, m)[0, 1]),
+                  "r2": float(1.0 - np.sum((y - m) ** 2) / np.sum((m - m.mean()) ** 2)),
                   "peak_error_bw": float((y.max() - m.max()) / bw), "peak_predicted_bw": float(y.max() / bw),
                   "peak_measured_bw": float(m.max() / bw)}
     return out
@@ -138,9 +121,7 @@ def run_knee(model, motion, grf, measured=None, muscles_on: bool = True, muscle_
     cycle = {}
 
     def right_cycle(plates, grf_table):
-        right = [p for p, s in plates.items() if s == "right"]
-        cycle["t"] = gait_cycle(grf_table, right, grf)
-        cycle["phases"] = gait_phases(grf_table, right, *cycle["t"])
+        cycle["t"] = gait_cycle(grf_table, [p for p, s in plates.items() if s == "right"], grf)
         return cycle["t"]
 
     gait = run_inverse_dynamics(model, motion, grf, cutoff=cutoff, select=right_cycle)
@@ -175,7 +156,7 @@ def run_knee(model, motion, grf, measured=None, muscles_on: bool = True, muscle_
         res = solve(gait.t, Qc, R, A, F0, muscles_on=muscles_on)
     res.muscles = paths.muscles
     bw = sum(b.mass for b in gait.osim.bodies.values()) * float(np.linalg.norm(gait.osim.gravity))
-    out = {"result": res, "gait": gait, "cycle": (t0, t1), "phases": cycle["phases"], "bw": bw, "F0": F0, "hill": hill, "muscle_model": muscle_model,
+    out = {"result": res, "gait": gait, "cycle": (t0, t1), "bw": bw, "F0": F0, "hill": hill, "muscle_model": muscle_model,
            "method": method, "model_data": data, "passive_hip": (passive_hip, passive),
            "wall_total": time.perf_counter() - clock}
     if measured is not None:
@@ -187,9 +168,7 @@ def run_knee(model, motion, grf, measured=None, muscles_on: bool = True, muscle_
 
 def write_knee_results(run: dict, out, plots: bool = True, inputs: dict | None = None) -> dict:
     from ..output.files import software_versions, write_csv, write_json
-    from ..output.report import write_report
     from ..output.run_folder import RunFolder
-    from ..output.sto import write_sto
 
     run_folder = RunFolder(out)        # written whole: the previous run's files are replaced
     folder = run_folder.begin()
@@ -199,11 +178,6 @@ def write_knee_results(run: dict, out, plots: bool = True, inputs: dict | None =
     if passive is not None:
         cols["passive_hip_flexion_moment"] = passive
     write_csv(folder / "loads.csv", r.t, cols)
-    write_sto(folder / "loads.sto", r.t, cols)        # OpenSim storage files (inDegrees=no)
-    write_sto(folder / "muscle_forces.sto", r.t, {m: r.force[:, i] for i, m in enumerate(r.muscles)})
-    g = run["gait"]
-    if len(g.t) == len(r.t):
-        write_sto(folder / "trajectory.sto", r.t, dict(zip(g.coordinate_names, g.states["p"].T)))
     from .knee_static import RESERVED
 
     method = run.get("method", "static")
@@ -239,10 +213,7 @@ def write_knee_results(run: dict, out, plots: bool = True, inputs: dict | None =
         summary["solve_time_s"] = r.timings["build"] + r.timings["solve"]
     if plots:
         summary["plots"] = [_plot(run, folder)]
-        summary["report"] = "report.html"
     write_json(folder / "summary.json", summary)
-    if plots:
-        write_report(folder, summary)
     run_folder.commit()
     return summary
 
@@ -277,17 +248,32 @@ def _muscle_model_text(run) -> dict:
 
 
 def _plot(run, folder) -> str:
-    """``knee_contact.png``: predicted and measured contact forces (BW), the gait phases shaded."""
-    from ..output.joint_plots import knee_figure
-    from ..output.plots import save
+    import io
+
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    from ..output.files import write_atomic
 
     r, bw = run["result"], run["bw"]
+    fig, axes = plt.subplots(3, 1, figsize=(8, 9), sharex=True)
     meas = run.get("measured")
-    measured = None if meas is None else (meas[0], {"medial": meas[1] / bw, "lateral": meas[2] / bw,
-                                                    "total": (meas[1] + meas[2]) / bw})
-    label = f"{METHOD_TEXT[run.get('method', 'static')]}, {run.get('muscle_model', 'ideal')} muscles"
-    fig = knee_figure(r.t, {"medial": r.medial / bw, "lateral": r.lateral / bw, "total": r.total / bw}, label,
-                      measured, run.get("phases", ()))
-    written: list[str] = []
-    save(fig, folder, "knee_contact.png", written, dpi=100)
-    return written[0]
+    for ax, (name, y) in zip(axes, (("medial", r.medial), ("lateral", r.lateral), ("total", r.total))):
+        ax.plot(r.t, y / bw, label=f"predicted ({METHOD_TEXT[run.get('method', 'static')]}, "
+                                         f"{run.get('muscle_model', 'ideal')} muscles)")
+        if meas is not None:
+            tm, med, lat = meas
+            m = {"medial": med, "lateral": lat, "total": med + lat}[name]
+            keep = (tm >= r.t[0]) & (tm <= r.t[-1])
+            ax.plot(tm[keep], m[keep] / bw, "k--", label="measured (eTibia)")
+        ax.set(ylabel=f"{name} [BW]")
+        ax.grid(alpha=0.3)
+        ax.legend(fontsize=8)
+    axes[-1].set(xlabel="t [s]")
+    buf = io.BytesIO()
+    fig.savefig(buf, format="png", dpi=100)
+    plt.close(fig)
+    write_atomic(Path(folder) / "knee_contact.png", buf.getvalue())
+    return "knee_contact.png"
