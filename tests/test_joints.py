@@ -658,4 +658,8 @@ def test_bad_joint_input_is_rejected_naming_the_joint():
         joints.cylindrical(m, "j", P, R, axis=(0, 0, 0))
     with pytest.raises(ModelError, match="joint 'j': anchor must be 3 finite numbers"):
         joints.planar(m, "j", P, anchor=(0, np.nan, 0))
+    with pytest.raises(ModelError, match="joint 'j': anchor must be 3 numbers, got \\(1, 2\\)"):
+        joints.ball_and_socket(m, "j", P, anchor=(1, 2))
+    with pytest.raises(ModelError, match="joint 'j': body_axis must be 3 numbers"):
+        joints.universal(m, "j", P, R, body_axis="up")
     assert not m.joints, "a rejected joint adds nothing"

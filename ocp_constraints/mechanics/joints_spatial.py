@@ -40,8 +40,15 @@ from .rotations import unit_vector
 E = [unit_vector(1), unit_vector(2), unit_vector(3)]
 
 
+def _vec3(v, what: str) -> np.ndarray:
+    try:
+        return np.asarray(v, dtype=float).reshape(3)
+    except (TypeError, ValueError):
+        raise ModelError(f"{what} must be 3 numbers, got {v!r}") from None
+
+
 def _unit(v, what: str) -> ca.DM:
-    a = np.asarray(v, dtype=float).reshape(3)
+    a = _vec3(v, what)
     n = np.linalg.norm(a)
     if not np.isfinite(n) or n == 0:
         raise ModelError(f"{what} must be a finite non-zero 3-vector, got {v!r}")
@@ -108,7 +115,7 @@ class _Pair:
 
 def _pair(name: str, point: Point, other: Point | None, anchor) -> _Pair:
     if other is None:
-        a = ca.DM.zeros(3, 1) if anchor is None else ca.DM(np.asarray(anchor, dtype=float).reshape(3))
+        a = ca.DM.zeros(3, 1) if anchor is None else ca.DM(_vec3(anchor, f"joint '{name}': anchor"))
         if not np.all(np.isfinite(np.asarray(a))):
             raise ModelError(f"joint '{name}': anchor must be 3 finite numbers, got {anchor!r}")
         return _Pair(name, point, None, ca.DM.eye(3), a)
