@@ -24,16 +24,18 @@ from ..mechanics.equations import SystemEquations
 from ..errors import ModelError, SimulationError
 from ..mechanics.rotations import UnitQuaternion
 from ..errors import RunInterrupted, SingularConfigurationError, interruption_reason
-from .compiled import compiled, is_cached
+from .compiled import compiled
 from ..output.signals import polling, raise_if_signalled, signal_mark, signal_since, watching_sigint
 from .preflight import check_initial_state, check_resources, input_function, state_vector
 from .trajectory import Trajectory
 from ..mechanics.state import project_state
 
 
-#: State size from which "auto" compiles the model functions (compile time vs run time, measured
-#: by scripts/compiled_break_even.py).
-COMPILE_ABOVE_NX = 10**9   # measured: compiling never paid within one run of the bench scenes
+#: State size from which "auto" compiles the model functions. Measured (bench.peers.forward_duel, pendulum,
+#: nx = 12): compiled and virtual-machine runs within the noise of each other, while compiling the DAE with
+#: its Jacobian and the sample function takes ~4 s each under load; no break-even was measured yet, so
+#: "auto" stays on the virtual machine.
+COMPILE_ABOVE_NX = 10**9
 
 
 @dataclass
@@ -137,12 +139,12 @@ class _Integrators:
 
 
 def _use_compiled(opts: SimulationOptions, dae: ca.Function) -> bool:
-    """``opts.compiled``: "always", "never", or "auto" (a library already in the disk cache is
-    used; otherwise the model is compiled only where the compile time pays, see
-    ``COMPILE_ABOVE_NX``)."""
+    """``opts.compiled``: "always", "never", or "auto": compiled (or loaded from the disk cache) from
+    ``COMPILE_ABOVE_NX`` states on; below, the virtual machine without looking at the cache (hashing
+    the function costs ~10-30 ms, more than compiled code saves on a small model)."""
     if opts.compiled in ("always", "never"):
         return opts.compiled == "always"
-    return is_cached(dae, with_jacobian=True) or dae.size1_in(1) >= COMPILE_ABOVE_NX
+    return dae.size1_in(1) >= COMPILE_ABOVE_NX
 
 
 class _SampleFunctions:
