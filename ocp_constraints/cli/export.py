@@ -3,6 +3,8 @@ from __future__ import annotations
 
 import argparse
 
+from .help import HelpFormatter, example
+
 
 def _positive_int(text: str) -> int:
     try:
@@ -20,15 +22,22 @@ def add_export_parser(subparsers) -> None:
     Each sets ``handler`` (:func:`cli_export_c`, :func:`cli_bench_export`); a handler
     returns the exit status and raises :class:`OcpConstraintsError` on bad input.
     """
-    e = subparsers.add_parser("export-c", help="export the scene's constraint functions as C (CasADi codegen)")
+    e = subparsers.add_parser("export-c", help="export the scene's constraint functions as C (CasADi codegen)",
+                              description="Generate plain C for a scene's constraint residuals, gradients, loads and "
+                                          "inverse-dynamics multipliers, with a header, an example program, a Makefile "
+                                          "and a CMakeLists.txt; compiled and checked against CasADi unless --no-verify.",
+                              epilog=example("ocp-constraints export-c whirling", "--out results/export/whirling"),
+                              formatter_class=HelpFormatter)
     e.add_argument("scene", help="built-in scene name or path of a scene file")
-    e.add_argument("--out", required=True, help="folder to write (an earlier export there is replaced)")
+    e.add_argument("--out", required=True, metavar="DIR", help="folder to write (an earlier export there is replaced)")
     e.add_argument("--param", action="append", default=[], metavar="NAME=VALUE", help="override a scene parameter")
     e.add_argument("--no-verify", action="store_true", help="do not compile and check the round trip")
     e.set_defaults(handler=cli_export_c)
-    b = subparsers.add_parser("bench-export", help="evaluations per second of the exported multipliers")
+    b = subparsers.add_parser("bench-export", help="evaluations per second of the exported multipliers",
+                              description="Time the exported C multipliers against CasADi's own evaluation.")
     b.add_argument("scenes", nargs="*", metavar="SCENE", help="scenes (default: whirling rolling_disk)")
-    b.add_argument("--runs", type=_positive_int, default=5, help="timed runs per method; the median is reported")
+    b.add_argument("--runs", type=_positive_int, default=5, metavar="N",
+                   help="timed runs per method; the median is reported (default 5)")
     b.add_argument("--markdown", nargs="?", const="results/export/bench.md", default=None, metavar="PATH",
                    help="also write the table as Markdown (default path results/export/bench.md)")
     b.set_defaults(handler=cli_bench_export)

@@ -5,23 +5,35 @@ import os
 import sys
 
 from ..errors import OcpConstraintsError
+from .help import GAIT, HelpFormatter, example
 
 
 def add_gait_parser(subparsers) -> None:
     """``gait --model M.osim --motion IK --grf GRF [--side right] [--start T0 --end T1] --out DIR``."""
-    g = subparsers.add_parser("gait", help="inverse dynamics of a gait trial: joint loads by Lagrange's prescription")
-    g.add_argument("--model", required=True, help="OpenSim model (.osim, 4.x format)")
-    g.add_argument("--motion", required=True, help="joint coordinates (IK .mot/.sto, JW .csv/.mat)")
-    g.add_argument("--grf", required=True, help="ground reaction forces (.mot/.sto/.csv/.mat, any number of plates)")
-    g.add_argument("--side", choices=("right", "left"), default="right", help="leg whose joints are reported")
-    g.add_argument("--start", type=float, default=None, help="first time [s] (default: start of the motion)")
-    g.add_argument("--end", type=float, default=None, help="last time [s] (default: end of the motion)")
+    g = subparsers.add_parser("gait", help="inverse dynamics of a gait trial: joint loads by Lagrange's prescription",
+                              description="Inverse dynamics of a measured gait trial on an OpenSim model: every joint's "
+                                          "constraint force and moment and the generalized force of every coordinate. "
+                                          "Writes summary.json, loads.csv/.sto, trajectory.sto (the filtered "
+                                          "coordinates, for OpenSim), PNG plots and report.html into --out.",
+                              epilog=example("ocp-constraints gait", f"--model {GAIT}/subject01_simbody.osim",
+                                             f"--motion {GAIT}/subject01_walk1_ik.mot",
+                                             f"--grf {GAIT}/subject01_walk1_grf.mot", "--out results/gait"),
+                              formatter_class=HelpFormatter)
+    g.add_argument("--model", required=True, metavar="MODEL.osim", help="OpenSim model (.osim, 4.x format)")
+    g.add_argument("--motion", required=True, metavar="FILE", help="joint coordinates (IK .mot/.sto, JW .csv/.mat)")
+    g.add_argument("--grf", required=True, metavar="FILE",
+                   help="ground reaction forces (.mot/.sto/.csv/.mat, any number of plates)")
+    g.add_argument("--side", choices=("right", "left"), default="right",
+                   help="leg whose joints are reported (default right)")
+    g.add_argument("--start", type=float, default=None, metavar="T0", help="first time [s] (default: start of the motion)")
+    g.add_argument("--end", type=float, default=None, metavar="T1", help="last time [s] (default: end of the motion)")
     f = g.add_mutually_exclusive_group()
     f.add_argument("--cutoff", type=float, default=6.0,
                    help="low-pass cutoff of the coordinates [Hz], 0 < cutoff < the motion's Nyquist frequency (default 6)")
     f.add_argument("--no-filter", action="store_true", help="use the coordinates unfiltered (no low-pass)")
-    g.add_argument("--out", required=True, help="folder for summary.json, loads.csv and plots")
-    g.add_argument("--no-plots", action="store_true", help="write no PNG plots")
+    g.add_argument("--out", required=True, metavar="DIR",
+                   help="folder for summary.json, loads.csv/.sto, trajectory.sto, plots and report.html")
+    g.add_argument("--no-plots", action="store_true", help="write no PNG plots and no report.html")
     g.set_defaults(handler=cli_gait)
 
 

@@ -6,15 +6,26 @@ import sys
 
 from ..biomech.knee_options import METHOD_TEXT, METHODS, MUSCLE_MODELS
 from ..errors import OcpConstraintsError
+from .help import JW_MODEL, JW_TRIAL, HelpFormatter, example
 
 
 def add_knee_parser(subparsers) -> None:
     """``knee --model M.osim --motion IK --grf GRF [--measured KCF] [--method static|collocation] --out DIR``."""
-    k = subparsers.add_parser("knee", help="knee contact loads (condyle contact, minimum-effort muscle forces)")
-    k.add_argument("--model", required=True, help="OpenSim model with a JW-type 6-DOF knee (.osim)")
-    k.add_argument("--motion", required=True, help="joint coordinates (IK .mot/.sto/.csv/.mat)")
-    k.add_argument("--grf", required=True, help="ground reaction forces")
-    k.add_argument("--measured", default=None, help="measured contact forces (KCF .csv/.mat: PM, AM, AL, PL in lbf)")
+    k = subparsers.add_parser("knee", help="knee contact loads (condyle contact, minimum-effort muscle forces)",
+                              description="Medial and lateral knee contact forces over the right gait cycle: inverse "
+                                          "dynamics, then minimum-effort muscle forces with the condyle contacts as "
+                                          "constraints; compared with measured loads if given. Writes summary.json, "
+                                          "loads.csv/.sto, muscle_forces.sto, trajectory.sto, knee_contact.png and "
+                                          "report.html into --out.",
+                              epilog=example("ocp-constraints knee", f"--model {JW_MODEL}",
+                                             f"--motion {JW_TRIAL}/IK/IK_ngait_og5.mat",
+                                             f"--grf {JW_TRIAL}/GRF/GRF_ngait_og5.mat",
+                                             f"--measured {JW_TRIAL}/KCF/KCF_ngait_og5.mat", "--out results/knee"),
+                              formatter_class=HelpFormatter)
+    k.add_argument("--model", required=True, metavar="MODEL.osim", help="OpenSim model with a JW-type 6-DOF knee (.osim)")
+    k.add_argument("--motion", required=True, metavar="FILE", help="joint coordinates (IK .mot/.sto/.csv/.mat)")
+    k.add_argument("--grf", required=True, metavar="FILE", help="ground reaction forces (.mot/.sto/.csv/.mat)")
+    k.add_argument("--measured", default=None, metavar="FILE", help="measured contact forces (KCF .csv/.mat: PM, AM, AL, PL in lbf)")
     k.add_argument("--method", choices=METHODS, default="static",
                    help="static: per-frame static optimisation (default); collocation: activation dynamics over the cycle")
     k.add_argument("--muscle-model", choices=MUSCLE_MODELS, default="ideal",
@@ -27,11 +38,12 @@ def add_knee_parser(subparsers) -> None:
     k.add_argument("--passive-hip", choices=("riener-edrich-1999", "none"), default="riener-edrich-1999",
                    help="passive hip flexion moment taken off the muscles' share (default: Riener & Edrich 1999, "
                         "in vivo, all passive structures); none: muscles carry the whole net moment")
-    k.add_argument("--implant-meshes", default=None,
+    k.add_argument("--implant-meshes", default=None, metavar="DIR",
                    help="folder with the implant's contact meshes (femPoints_188.csv, tibPoints_100.csv, "
                         "facesTib1_100.csv, facesTib2_100.csv): needed once for a model other than the JW model")
-    k.add_argument("--out", required=True, help="folder for summary.json, loads.csv and plots")
-    k.add_argument("--no-plots", action="store_true", help="write no PNG plots")
+    k.add_argument("--out", required=True, metavar="DIR",
+                   help="folder for summary.json, loads.csv/.sto, muscle_forces.sto, plots and report.html")
+    k.add_argument("--no-plots", action="store_true", help="write no PNG plots and no report.html")
     k.set_defaults(handler=cli_knee)
 
 

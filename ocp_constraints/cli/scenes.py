@@ -3,29 +3,43 @@ from __future__ import annotations
 
 import sys
 
+from .help import HelpFormatter, example
+
 
 def add_scene_parsers(sub) -> None:
     """Register ``list``, ``simulate`` and ``solve`` (their handlers import the library only when run)."""
-    sub.add_parser("list", help="list the built-in scenes and their optimal-control tasks").set_defaults(
+    sub.add_parser("list", help="list the built-in scenes and their optimal-control tasks",
+                   description="List the built-in scenes, what each shows, and their optimal-control tasks.").set_defaults(
         handler=lambda args: _list())
-    s = sub.add_parser("simulate", help="forward simulation with constraint loads")
+    s = sub.add_parser("simulate", help="forward simulation with constraint loads",
+                       description="Simulate a scene forward in time (CVODES, projection onto the constraints) and "
+                                   "report every joint's constraint force, moment and power. With --out: "
+                                   "summary.json, trajectory.csv/.sto, loads.csv/.sto, PNG plots and report.html.",
+                       epilog=example("ocp-constraints simulate whirling", "--t-final 10",
+                                      "--param omega_amplitude=0.5", "--out results/whirling"),
+                       formatter_class=HelpFormatter)
     s.add_argument("scene", help="built-in scene name or path of a scene file")
-    s.add_argument("--t-final", type=float, default=None, help="end time [s] (default: the scene's)")
-    s.add_argument("--dt", type=float, default=0.01, help="output sampling [s] (default 0.01)")
-    s.add_argument("--out", default=None, help="folder for summary.json, trajectory.csv, loads.csv and plots")
+    s.add_argument("--t-final", type=float, default=None, metavar="T", help="end time [s] (default: the scene's)")
+    s.add_argument("--dt", type=float, default=0.01, metavar="DT", help="output sampling [s] (default 0.01)")
+    s.add_argument("--out", default=None, metavar="DIR", help="folder for summary.json, trajectory.csv/.sto, loads.csv/.sto, plots and report.html (default: none written)")
     s.add_argument("--param", action="append", default=[], metavar="NAME=VALUE", help="override a scene parameter")
-    s.add_argument("--no-plots", action="store_true", help="write no PNG plots")
+    s.add_argument("--no-plots", action="store_true", help="write no PNG plots and no report.html")
     s.set_defaults(handler=_simulate)
-    o = sub.add_parser("solve", help="optimal control by direct collocation and IPOPT")
+    o = sub.add_parser("solve", help="optimal control by direct collocation and IPOPT",
+                       description="Solve an optimal-control task of a scene by direct collocation and IPOPT; the "
+                                   "constraint loads come with the solution. With --out: the files of simulate.",
+                       epilog=example("ocp-constraints solve pendulum", "--scheme radau --degree 3 --intervals 50",
+                                      "--out results/swing_up"),
+                       formatter_class=HelpFormatter)
     o.add_argument("scene", help="built-in scene name or path of a scene file")
-    o.add_argument("--task", default=None, help="task of the scene (default: its first)")
+    o.add_argument("--task", default=None, metavar="NAME", help="task of the scene (default: its first; see 'list')")
     o.add_argument("--scheme", default="radau", choices=["trapezoidal", "hermite-simpson", "radau"],
                    help="collocation scheme (default radau)")
-    o.add_argument("--degree", type=int, default=None, help="Radau degree, 1 to 9 (default 3; --scheme radau only)")
-    o.add_argument("--intervals", type=int, default=50, help="mesh intervals (default 50)")
-    o.add_argument("--out", default=None, help="folder for summary.json, trajectory.csv, loads.csv and plots")
+    o.add_argument("--degree", type=int, default=None, metavar="D", help="Radau degree, 1 to 9 (default 3; --scheme radau only)")
+    o.add_argument("--intervals", type=int, default=50, metavar="N", help="mesh intervals (default 50)")
+    o.add_argument("--out", default=None, metavar="DIR", help="folder for summary.json, trajectory.csv/.sto, loads.csv/.sto, plots and report.html (default: none written)")
     o.add_argument("--param", action="append", default=[], metavar="NAME=VALUE", help="override a scene parameter")
-    o.add_argument("--no-plots", action="store_true", help="write no PNG plots")
+    o.add_argument("--no-plots", action="store_true", help="write no PNG plots and no report.html")
     o.add_argument("--reintegrate", action="store_true", help="forward-simulate the optimal inputs and report the deviation")
     o.add_argument("--starts", type=int, default=1, metavar="K",
                    help="multi-start: solve from K guesses (the task's and K-1 perturbed), keep the best, "
