@@ -1,6 +1,6 @@
 """Issue 15: the knee's modelling candidates, one at a time, measured against the eTibia loads.
 
-    python scripts/knee_candidates.py [--out results/knee] [--plot-only]
+    python scripts/knee_candidates.py [--out results/knee] [--plot-only]   (--plot-only: C6 and the plot only)
 
 Runs the inverse dynamics of ngait_og5 once, then the static optimisation with one change
 at a time (and the adopted combination), and writes ``candidates.md`` / ``candidates.json``:
@@ -191,6 +191,36 @@ def main(out_dir: Path):
     print("\n".join(lines))
 
 
+def contact_points_on_mesh(out_dir: Path) -> dict:
+    """C6: where each femoral condyle touches its plateau on the implant mesh itself, 0-60 degrees of flexion.
+
+    The femoral-component mesh (``femPoints_188.csv``, femoral frame) is placed by the JW knee
+    (``R_FM = Rz(flexion)``, ``p_FM = (0, knee_ty, 0)``, tray frame, +Z medial); the contact
+    vertex of a condyle is its lowest one (smallest tray Y, towards the plateau). Written to
+    ``contact_geometry.json`` beside the sphere model's centres (``medial_cz``, ``lateral_cz``)."""
+    from ocp_constraints.biomech.knee_contact import stored_geometry
+
+    pts = np.loadtxt(J / "workshop_bcn2024" / "ExperimentalData" / "femPoints_188.csv", delimiter=",")
+    geo = stored_geometry()
+    rows = []
+    for deg in range(0, -61, -5):
+        a = np.radians(deg)
+        Rz = np.array([[np.cos(a), -np.sin(a), 0], [np.sin(a), np.cos(a), 0], [0, 0, 1]])
+        X = pts @ Rz.T + np.array([0.0, 0.042, 0.0])
+        row = {"knee_flexion_deg": deg}
+        for side, sign in (("medial", 1.0), ("lateral", -1.0)):
+            V = X[X[:, 2] * sign > 0]
+            row[f"{side}_z_mm"] = float(1000 * V[np.argmin(V[:, 1]), 2])
+        rows.append(row)
+    out = {"mesh_contact_points": rows,
+           "sphere_model_z_mm": {"medial": 1000 * geo["medial_cz"], "lateral": 1000 * geo["lateral_cz"]},
+           "mesh_spacing_mm_mean": float(np.mean([r["medial_z_mm"] - r["lateral_z_mm"] for r in rows])),
+           "sphere_spacing_mm": 1000 * (geo["medial_cz"] - geo["lateral_cz"])}
+    out_dir.mkdir(parents=True, exist_ok=True)
+    (out_dir / "contact_geometry.json").write_text(json.dumps(out, indent=1))
+    return out
+
+
 def plot_before_after(out_dir: Path) -> Path:
     """``before_after.png``: medial, lateral, total of ``<out>/before/loads.csv`` (issue 14's model) and
     ``<out>/loads.csv`` (with the passive hip moment) against the measured loads."""
@@ -234,4 +264,11 @@ if __name__ == "__main__":
     args = ap.parse_args()
     if not args.plot_only:
         main(Path(args.out))
+    geo = contact_points_on_mesh(Path(args.out))
+    print(f"C6 contact points on the mesh: spacing {geo['mesh_spacing_mm_mean']:.1f} mm (mean over 0-60 deg), "
+          f"medial {min(r['medial_z_mm'] for r in geo['mesh_contact_points']):.1f}-"
+          f"{max(r['medial_z_mm'] for r in geo['mesh_contact_points']):.1f} mm, lateral "
+          f"{min(r['lateral_z_mm'] for r in geo['mesh_contact_points']):.1f}-"
+          f"{max(r['lateral_z_mm'] for r in geo['mesh_contact_points']):.1f} mm; spheres "
+          f"{geo['sphere_spacing_mm']:.1f} mm")
     print(plot_before_after(Path(args.out)))
