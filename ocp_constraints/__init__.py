@@ -29,10 +29,13 @@ from .errors import (
     OcpConstraintsError,
     OsimModelError,
     RedundantConstraintsError,
+    ResourceLimitError,
     RoundTripError,
+    RunInterrupted,
     SceneError,
     SimulationError,
     SingularConfigurationError,
+    UsageError,
 )
 
 # public name -> module that defines it (relative to this package)
@@ -65,7 +68,7 @@ _PUBLIC = {
     "Robot": "mechanics.urdf_robot",
 }
 
-__all__ = sorted(_PUBLIC) + [name for name in dir() if name.endswith("Error")] + ["__version__"]
+__all__ = sorted(_PUBLIC) + [name for name in dir() if name.endswith("Error")] + ["RunInterrupted", "__version__"]
 
 
 def __getattr__(name: str):

@@ -173,18 +173,20 @@ def samples_memory(eqs: SystemEquations, n_samples: int, write: bool = True) -> 
     """Peak memory (bytes) of a run that keeps ``n_samples`` samples (and writes its results).
 
     Per sample the trajectory holds 10 arrays (``t, q, u, u', lambda, inputs, work``, two drifts,
-    applied work); writing adds the state and load columns as floats, their CSV text (about 25
-    bytes a number) and its encoded copy. ``scripts/simulation_memory.py`` checks this formula
+    applied work); writing adds those as one array each, the state and load columns as floats (and
+    a copy), and the text of the widest file (about 25 bytes a number) three times over (the
+    buffer, its string, the encoded bytes). ``scripts/simulation_memory.py`` checks this formula
     against ``tracemalloc`` peaks.
     """
     nin = eqs.inputs.numel()
-    held = 10 * _ARRAY_OBJECT + 8 * (eqs.nq + 2 * eqs.nu + 2 * eqs.nc + nin)
+    arrays = 8 * (eqs.nq + 2 * eqs.nu + 2 * eqs.nc + nin)
+    held = 10 * _ARRAY_OBJECT + arrays
     if not write:
         return int(n_samples * held)
     n_state = 2 * eqs.nq + eqs.nu + nin + 1            # coordinates, angle rates, speeds, inputs, t
     n_loads = eqs.nc + 10 * len(eqs.load_channels) + 1
     columns = max(n_state, n_loads)
-    written = 8 * (n_state + n_loads) * 2 + columns * 25 * 2
+    written = arrays + 8 * (n_state + n_loads) * 2 + columns * 25 * 3
     return int(n_samples * (held + written))
 
 
