@@ -119,23 +119,38 @@ def consistent_state(eqs: SystemEquations, coordinates: dict[str, float], rates:
 
 
 def project_positions(eqs: SystemEquations, q: np.ndarray, t: float, iterations: int = 8, inputs=None) -> np.ndarray:
-    """Nearest coordinates on ``phi(q, t) = 0`` (Gauss-Newton, minimum-norm steps), unit quaternions."""
+    """Nearest coordinates on ``phi(q, t) = 0`` with unit quaternions (Gauss-Newton, minimum-norm steps).
+
+    A quaternion's length is one more equation of the Newton steps (``|q|^2 - 1 = 0``), so the
+    result is on the constraints *and* unit: normalizing after the steps would leave ``phi``
+    violated, normalizing only before them leaves ``|q| != 1`` (and ``Phi = lambda A`` scaled
+    by ``|q|^2``).
+    """
     q = np.array(q, dtype=float)
-    start = 0
+    spans, start = [], 0
     for b in eqs.bodies:
         n = b.q.numel()
         if isinstance(b.rotation, UnitQuaternion):
-            q[start + 3 : start + n] /= np.linalg.norm(q[start + 3 : start + n])
+            spans.append(slice(start + 3, start + n))
+            q[spans[-1]] /= np.linalg.norm(q[spans[-1]])
         start += n
-    if eqs.holonomic:
-        u0 = np.zeros(eqs.nu)
-        w = np.zeros(eqs.inputs.numel()) if inputs is None else inputs
-        for _ in range(iterations):
-            _, _, phi, _, J = eqs.constraint_functions(q, u0, t, w)
-            phi, J = np.asarray(phi).ravel(), np.asarray(J)
-            if np.abs(phi).max() < 1e-15:
-                break
-            q -= np.linalg.lstsq(J, phi, rcond=None)[0]
+    if not eqs.holonomic:
+        return q
+    u0 = np.zeros(eqs.nu)
+    w = np.zeros(eqs.inputs.numel()) if inputs is None else inputs
+    for _ in range(iterations):
+        _, _, phi, _, J = eqs.constraint_functions(q, u0, t, w)
+        rows = [np.asarray(J).reshape(-1, eqs.nq)]
+        residual = [np.asarray(phi).ravel()]
+        for s in spans:
+            row = np.zeros((1, eqs.nq))
+            row[0, s] = 2 * q[s]
+            rows.append(row)
+            residual.append([q[s] @ q[s] - 1.0])
+        r = np.concatenate(residual)
+        if np.abs(r).max() < 1e-15:
+            break
+        q -= np.linalg.lstsq(np.vstack(rows), r, rcond=None)[0]
     return q
 
 
