@@ -175,6 +175,11 @@ class SystemEquations:
     def coordinate_rates(self) -> ca.Function:
         return ca.Function("coordinate_rates", [self.q, self.u], [self.qdot], ["q", "u"], ["qdot"])
 
+    @cached_property
+    def rate_matrix(self) -> ca.Function:
+        """``q -> N(q)`` with ``q' = N(q) u`` (the coordinate rates are linear in the speeds)."""
+        return ca.Function("rate_matrix", [self.q], [ca.jacobian(self.qdot, self.u)], ["q"], ["N"])
+
     # -- constraint loads (built only when results ask for them) -----------------------
     @cached_property
     def load_channels(self) -> list[LoadChannel]:

@@ -7,7 +7,6 @@ user did not mention are made as small as possible (zero when they can be).
 """
 from __future__ import annotations
 
-import casadi as ca
 import numpy as np
 import scipy.linalg
 
@@ -42,7 +41,7 @@ def rate_rows(eqs: SystemEquations, q: np.ndarray) -> tuple[list[str], np.ndarra
     Names are the coordinate rates ``<body>.<coordinate>_dot`` and the speeds
     ``<body>.vbar_x`` ... ``<body>.omega_z``.
     """
-    N = np.asarray(ca.Function("N", [eqs.q], [ca.jacobian(eqs.qdot, eqs.u)])(q))
+    N = np.asarray(eqs.rate_matrix(q))
     names = [f"{n}_dot" for n in eqs.model.coordinate_names] + eqs.model.speed_names
     return names, np.vstack([N, np.eye(eqs.nu)])
 

@@ -16,7 +16,6 @@ produce, no dynamics defect either.
 """
 from __future__ import annotations
 
-import casadi as ca
 import numpy as np
 import scipy.linalg
 
@@ -54,8 +53,7 @@ def _speeds(tr, Q: np.ndarray, U_user: np.ndarray, t: np.ndarray, W: np.ndarray)
     Qdot = np.gradient(Q, t, axis=1) if P > 1 else np.zeros_like(Q)
     G, e_, _, _, _ = (np.asarray(x) for x in e.constraint_functions.map(P)(Q, np.zeros((e.nu, P)), t[None, :], W))
     G, e_ = G.reshape(e.nc, P, e.nu).transpose(1, 0, 2), e_.reshape(e.nc, P).T
-    rate_matrix = ca.Function("rate_matrix", [e.q], [ca.jacobian(e.qdot, e.u)])     # q' = N(q) u
-    N = np.asarray(rate_matrix.map(P)(Q)).reshape(e.nq, P, e.nu).transpose(1, 0, 2)
+    N = np.asarray(e.rate_matrix.map(P)(Q)).reshape(e.nq, P, e.nu).transpose(1, 0, 2)     # q' = N(q) u
     rates = [f"{n}_dot" for n in e.model.coordinate_names]
     U = np.zeros((e.nu, P))
     for i in range(P):
