@@ -78,7 +78,7 @@ METHODS = ("static", "collocation")
 
 def run_knee(model, motion, grf, measured=None, muscles_on: bool = True, muscle_model: str = "ideal",
              method: str = "static", cutoff: float | None = 6.0, implant_meshes=None, build_model_data: bool = True,
-             passive_hip: str = "riener-edrich-1999"):
+             passive_hip: str = "riener-edrich-1999", parameters: dict | None = None):
     """Gait cycle -> inverse dynamics -> static optimisation or collocation (-> comparison). Returns a dict.
 
     ``method``: ``"static"`` (per-frame static optimisation, :mod:`.knee_static`) or
@@ -98,8 +98,13 @@ def run_knee(model, motion, grf, measured=None, muscles_on: bool = True, muscle_
     ``passive_hip``: ``"riener-edrich-1999"`` (default) takes the passive hip flexion moment of
     :mod:`.knee_passive` off the muscles' share of the hip flexion balance; ``"none"`` leaves
     the whole net moment to the muscles (and reserves).
+
+    ``parameters``: condyle centres that replace the model file's (:func:`condyle_overrides`),
+    e.g. for a sensitivity study of the condyle spacing.
     """
     from .knee_passive import PASSIVE_HIP
+
+    overrides = condyle_overrides(parameters)
 
     if passive_hip not in PASSIVE_HIP:
         raise KneeError(f"unknown passive hip model '{passive_hip}' (use one of {', '.join(PASSIVE_HIP)})")
@@ -129,7 +134,8 @@ def run_knee(model, motion, grf, measured=None, muscles_on: bool = True, muscle_
     paths = MusclePaths(data.muscle_paths)
     params = muscle_parameters(model, paths.muscles)
     F0 = np.array([params[m].max_isometric_force for m in paths.muscles])
-    Qc, R, A = frame_data(gait, paths, contact_matrix_function({**default_parameters(), **data.geometry}))
+    Qc, R, A = frame_data(gait, paths, contact_matrix_function({**default_parameters(), **data.geometry,
+                                                                        **overrides}))
     passive = None
     if passive_hip != "none":           # passive structures carry part of the hip flexion moment
         from .knee_passive import passive_hip_moment
@@ -277,3 +283,24 @@ def _plot(run, folder) -> str:
     plt.close(fig)
     write_atomic(Path(folder) / "knee_contact.png", buf.getvalue())
     return "knee_contact.png"
+
+CONDYLE_PARAMETERS = ("medial_cx", "medial_cy", "medial_cz", "lateral_cx", "lateral_cy", "lateral_cz")
+
+
+def condyle_overrides(parameters: dict | None) -> dict[str, float]:
+    """Condyle sphere centres (m, femoral component frame: x posterior, y proximal, z medial) that
+    replace the implant geometry's (:mod:`.knee_contact`); the condyle spacing is ``medial_cz -
+    lateral_cz``. Only the centres enter the contact loads' directions and moment arms (``A``,
+    eq. 39): radii and plateau heights do not, so they are refused rather than silently ignored."""
+    out = {}
+    for name, value in (parameters or {}).items():
+        if name not in CONDYLE_PARAMETERS:
+            raise KneeError(f"knee parameter '{name}' is not one the contact loads depend on; use "
+                            f"{', '.join(CONDYLE_PARAMETERS)} (condyle centres, m)")
+        try:
+            out[name] = float(value)
+        except (TypeError, ValueError):
+            out[name] = float("nan")
+        if not np.isfinite(out[name]):
+            raise KneeError(f"knee parameter '{name}' = {value!r} is not a finite number (m)")
+    return out

@@ -44,6 +44,9 @@ def add_knee_parser(subparsers) -> None:
     k.add_argument("--out", required=True, metavar="DIR",
                    help="folder for summary.json, loads.csv/.sto, muscle_forces.sto, plots and report.html")
     k.add_argument("--no-plots", action="store_true", help="write no PNG plots and no report.html")
+    k.add_argument("--param", action="append", default=[], metavar="NAME=VALUE",
+                   help="replace a condyle centre of the implant geometry (m, femoral component frame): "
+                        "medial_cx/cy/cz, lateral_cx/cy/cz (condyle spacing = medial_cz - lateral_cz)")
     k.set_defaults(handler=cli_knee)
 
 
@@ -58,13 +61,16 @@ def cli_knee(args) -> int:
         cutoff = None if getattr(args, "no_filter", False) else getattr(args, "cutoff", 6.0)
         run = run_knee(args.model, args.motion, args.grf, args.measured, muscle_model=args.muscle_model,
                        method=args.method, cutoff=cutoff, implant_meshes=getattr(args, "implant_meshes", None),
-                       passive_hip=getattr(args, "passive_hip", "riener-edrich-1999"))
+                       passive_hip=getattr(args, "passive_hip", "riener-edrich-1999"),
+                       parameters=_params(getattr(args, "param", [])))
         summary = write_knee_results(run, args.out, plots=not args.no_plots,
                                      inputs={"model": str(args.model), "motion": str(args.motion), "grf": str(args.grf),
                                              "measured": None if args.measured is None else str(args.measured),
                                              "method": args.method, "muscle_model": args.muscle_model,
                                              "cutoff_hz": cutoff, "no_filter": cutoff is None,
-                                             "passive_hip": getattr(args, "passive_hip", "riener-edrich-1999")})
+                                             "passive_hip": getattr(args, "passive_hip", "riener-edrich-1999"),
+                                             "parameters": {k: float(v) for k, v in
+                                                            _params(getattr(args, "param", [])).items()}})
     except OcpConstraintsError as exc:
         print(f"error: {exc}", file=sys.stderr)
         return 2
@@ -78,3 +84,9 @@ def cli_knee(args) -> int:
             print(f"  {k}: RMSE {v['rmse_bw']:.2f} BW, r {v['r']:.2f}, R^2 {v.get('r2', float('nan')):.2f}, "
                   f"peak error {v['peak_error_bw']:+.2f} BW")
     return 0
+
+
+def _params(items: list[str]) -> dict[str, str]:
+    from ..scenes.registry import parse_param_arguments
+
+    return parse_param_arguments(items)
