@@ -197,3 +197,11 @@ def test_the_opensim_preprocessing_refuses_a_model_without_a_jw_knee(tmp_path):
                                         r"coordinate\(s\) \['hip_flexion', .*JW-type right knee"):
         build_muscle_paths(MODEL, tmp_path / "paths.json", samples=10)
     assert not (tmp_path / "paths.json").exists()
+
+
+def test_a_selected_window_past_the_files_is_refused():
+    with pytest.raises(GaitError, match=r"selected window 0\.3 \.\.\. 1 s reaches past the time both files cover "
+                                        r"\(0\.4 \.\.\. 1\.6 s\)"):
+        run_inverse_dynamics(MODEL, IK, GRF, select=lambda plates, grf: (0.3, 1.0))
+    r = run_inverse_dynamics(MODEL, IK, GRF, select=lambda plates, grf: (0.5, 1.0))
+    assert r.t[0] == pytest.approx(0.5) and r.t[-1] == pytest.approx(1.0) and r.settings["timing"]["samples"] == 31

@@ -66,3 +66,16 @@ def test_comparison_reports_r2_and_rmse_in_body_weights():
     # SSE = 5 * 10^2 = 500; SST = sum((m - 80)^2) = 6400 + 400 + 14400 + 400 + 6400 = 28000
     assert out["r2"] == pytest.approx(1 - 500 / 28000, rel=1e-12)
     assert out["rmse_bw"] == pytest.approx(10.0 / 500.0, rel=1e-12) and out["peak_error_bw"] == pytest.approx(0.02)
+
+
+def test_comparison_uses_only_the_frames_the_measured_record_covers():
+    from ocp_constraints.biomech.knee_pipeline import compare
+
+    t = np.linspace(0.0, 1.0, 11)                    # frames every 0.1 s
+    tm = np.linspace(0.5, 2.0, 16)                   # the record starts half-way through the cycle
+    measured = (tm, np.full(16, 100.0), np.zeros(16))
+    y = np.where(t < 0.45, 1e6, 110.0)              # wild values before the record starts must not count
+    out = compare(t, {"medial": y}, measured, bw=100.0)["medial"]
+    assert out["frames_compared"] == 6 and out["rmse_bw"] == pytest.approx(0.1, rel=1e-12)
+    with pytest.raises(KneeError, match=r"measured loads cover 5 \.\.\. 6 s, which is not the gait cycle 0 \.\.\. 1 s"):
+        compare(t, {"medial": y}, (np.array([5.0, 6.0]), np.ones(2), np.ones(2)), bw=100.0)

@@ -258,6 +258,10 @@ def run_inverse_dynamics(model_path, motion_path, grf_path, start: float | None 
     assigned = assign_plates(window_plates, feet, up, str(grf.path))
     if select is not None:          # e.g. the knee's gait cycle, found from the plates of one foot
         lo, hi = select(assigned, grf)
+        if lo < t[0] - timing["tolerance_s"] or hi > t[-1] + timing["tolerance_s"]:
+            raise GaitError(f"the selected window {lo:g} ... {hi:g} s reaches past the time both files cover "
+                            f"({t[0]:g} ... {t[-1]:g} s): the motion {motion_path} and the ground reactions "
+                            f"{grf_path} must both cover it")
         t = t[(t >= lo - 1e-9) & (t <= hi + 1e-9)]
         if len(t) < 2:
             raise GaitError(f"{motion_path}: fewer than two motion samples in the selected window {lo:g} ... {hi:g} s")

@@ -58,16 +58,26 @@ def read_measured(path) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
 
 
 def compare(t, predicted: dict, measured, bw: float) -> dict:
-    """RMSE (BW), Pearson r, R^2 (1 - SSE/SST) and peak error (BW) per channel, measured interpolated to ``t``."""
+    """RMSE (BW), Pearson r, R^2 (1 - SSE/SST) and peak error (BW) per channel, measured interpolated to ``t``.
+
+    Only the frames that the measured record covers count (``frames_compared``); a record that
+    covers fewer than two of them is a :class:`KneeError` naming both ranges."""
     tm, med, lat = measured
     ref = {"medial": med, "lateral": lat, "total": med + lat}
+    half = 0.5 * float(np.median(np.diff(tm))) if len(tm) > 1 else 0.0
+    keep = (t >= tm[0] - half) & (t <= tm[-1] + half)
+    if keep.sum() < 2:
+        raise KneeError(f"the measured loads cover {tm[0]:g} ... {tm[-1]:g} s, which is not the gait cycle "
+                        f"{t[0]:g} ... {t[-1]:g} s: nothing to compare")
+    t = np.asarray(t)[keep]
     out = {}
     for k, y in predicted.items():
+        y = np.asarray(y)[keep]
         m = np.interp(t, tm, ref[k])
         out[k] = {"rmse_bw": float(np.sqrt(np.mean((y - m) ** 2)) / bw), "r": float(np.corrcoef(y, m)[0, 1]),
                   "r2": float(1.0 - np.sum((y - m) ** 2) / np.sum((m - m.mean()) ** 2)),
                   "peak_error_bw": float((y.max() - m.max()) / bw), "peak_predicted_bw": float(y.max() / bw),
-                  "peak_measured_bw": float(m.max() / bw)}
+                  "peak_measured_bw": float(m.max() / bw), "frames_compared": int(keep.sum())}
     return out
 
 
