@@ -251,3 +251,45 @@ def test_minimum_effort_swing_with_a_bound_on_a_joint_reaction_force():
     assert peak_b == pytest.approx(0.95 * peak, rel=1e-6)
     assert bounded.objective > free.objective
     assert max(bounded.residuals()) < 1e-9
+
+
+@needs_robots
+def test_robot_arm_example_prints_pinocchios_loads_and_an_active_reaction_bound():
+    """examples/robot_arm_urdf.py (UR5, --intervals 4): its table of peak joint loads along the motion it
+    defines equals Pinocchio's RNEA on the same motion (to the two printed decimals), and its bounded
+    optimum has the bound active and a larger objective."""
+    import os
+    import subprocess
+    import sys
+
+    pin = pytest.importorskip("pinocchio", reason="Pinocchio is an optional peer (pip install pin)")
+    example = Path(__file__).resolve().parents[1] / "examples" / "robot_arm_urdf.py"
+    proc = subprocess.run([sys.executable, str(example), "--intervals", "4"], capture_output=True, text=True,
+                          timeout=600, env={**os.environ, "MPLBACKEND": "Agg"})
+    assert proc.returncode == 0, proc.stderr
+    text = proc.stdout
+    pm = pin.buildModelFromUrdf(str(ROBOTS / URDFS["ur5"]))
+    pd = pm.createData()
+    names = [pm.names[i] for i in range(1, pm.njoints)]
+    t = np.linspace(0.0, 2.0, 41)[:, None]                  # the example's motion
+    w = np.linspace(0.6, 1.6, 6)
+    q, qd, qdd = 0.6 * np.sin(w * t), 0.6 * w * np.cos(w * t), -0.6 * w**2 * np.sin(w * t)
+    peaks = {n: np.zeros(3) for n in names}
+    for i in range(len(t)):
+        tau = pin.rnea(pm, pd, q[i], qd[i], qdd[i])
+        for k, n in enumerate(names):
+            f = pd.f[k + 1]
+            kind = pm.joints[k + 1].shortname()             # JointModelRY: a revolute joint about the joint frame's y
+            axis = np.eye(3)["XYZ".index(kind[-1])] if kind in ("JointModelRX", "JointModelRY", "JointModelRZ") \
+                else np.asarray(pm.joints[k + 1].extract().axis, float)
+            moment = f.angular - tau[k] * axis                  # the constraint moment: the motor's taken off
+            peaks[n] = np.maximum(peaks[n], [np.linalg.norm(f.linear), np.linalg.norm(moment), abs(tau[k])])
+    for n in names:
+        m = re.search(rf"{n}\s+max \|F_c\| =\s+([\d.]+) N\s+max \|M_c\| =\s+([\d.]+) N m\s+max \|tau\| =\s+([\d.]+)", text)
+        assert m, f"{n} not in:\n{text}"
+        assert np.allclose([float(g) for g in m.groups()], peaks[n], rtol=0, atol=0.0051), (n, m.groups(), peaks[n])
+    bound = float(re.search(r"with \|F_c\| <= ([\d.]+) N", text).group(1))
+    peak_b = float(re.search(r"peak \|F_c\| ([\d.]+) N \(\d+ IPOPT", text).group(1))
+    free = float(re.search(r"minimum effort: objective ([\d.]+)", text).group(1))
+    bounded = float(re.search(r"with \|F_c\| <= [\d.]+ N: objective ([\d.]+)", text).group(1))
+    assert peak_b == pytest.approx(bound, abs=0.011) and bounded > free
