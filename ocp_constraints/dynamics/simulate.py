@@ -24,17 +24,18 @@ from ..mechanics.equations import SystemEquations
 from ..errors import ModelError, SimulationError
 from ..mechanics.rotations import UnitQuaternion
 from ..errors import RunInterrupted, SingularConfigurationError, interruption_reason
-from .compiled import compiled
+from .compiled import compiled, is_cached
 from ..output.signals import polling, raise_if_signalled, signal_mark, signal_since, watching_sigint
 from .preflight import check_initial_state, check_resources, input_function, state_vector
 from .trajectory import Trajectory
 from ..mechanics.state import project_state
 
 
-#: State size from which "auto" compiles the model functions. Measured (bench.peers.forward_duel, pendulum,
-#: nx = 12): compiled and virtual-machine runs within the noise of each other, while compiling the DAE with
-#: its Jacobian and the sample function takes ~4 s each under load; no break-even was measured yet, so
-#: "auto" stays on the virtual machine.
+#: State size from which "auto" compiles the model functions. Measured (bench.peers.forward_duel, 10 s runs,
+#: medians of 3 interleaved, load ~11 on 2 cores): with the libraries cached, compiled runs are 25-30% faster
+#: on the sliding disk and within the noise on the pendulum, while compiling the DAE with its Jacobian and
+#: the sample function takes ~4 s each under load; no break-even size was measured, so "auto" uses
+#: libraries already in the cache (checking costs ~1-2 ms) and compiles nothing itself.
 COMPILE_ABOVE_NX = 10**9
 
 
@@ -139,12 +140,11 @@ class _Integrators:
 
 
 def _use_compiled(opts: SimulationOptions, dae: ca.Function) -> bool:
-    """``opts.compiled``: "always", "never", or "auto": compiled (or loaded from the disk cache) from
-    ``COMPILE_ABOVE_NX`` states on; below, the virtual machine without looking at the cache (hashing
-    the function costs ~10-30 ms, more than compiled code saves on a small model)."""
+    """``opts.compiled``: "always", "never", or "auto": the compiled library when the disk cache has
+    it (a run with "always" made it), compiled here from ``COMPILE_ABOVE_NX`` states on."""
     if opts.compiled in ("always", "never"):
         return opts.compiled == "always"
-    return dae.size1_in(1) >= COMPILE_ABOVE_NX
+    return dae.size1_in(1) >= COMPILE_ABOVE_NX or is_cached(dae, with_jacobian=True)
 
 
 class _SampleFunctions:
