@@ -27,7 +27,7 @@ h1{font-size:1.6em;margin-bottom:.2em} h2{border-bottom:1px solid #d0d7de;paddin
 .status{display:inline-block;padding:.25em .7em;border-radius:1em;font-weight:600}
 .ok{background:#dafbe1;color:#116329} .fail{background:#ffebe9;color:#a40e26}
 table{border-collapse:collapse;font-size:.85em} td,th{border:1px solid #d0d7de;padding:.25em .5em;text-align:left;
-     vertical-align:top} th{background:#f6f8fa} td.num{text-align:right;font-variant-numeric:tabular-nums}
+     vertical-align:top} th{background:#f6f8fa} td.num{text-align:right;font-variant-numeric:tabular-nums;white-space:nowrap}
 .scroll{overflow-x:auto;max-width:100%;margin-bottom:1em} figure{margin:1em 0} img{max-width:100%;width:880px;
      border:1px solid #d0d7de} figcaption{font-size:.85em;color:#57606a} code{background:#f6f8fa;padding:0 .2em}
 """
