@@ -20,8 +20,8 @@ from typing import Callable
 
 import casadi as ca
 import numpy as np
-import scipy.linalg
 
+from ..mechanics.state import null_space
 from ..errors import InconsistentStateError, ModelError, ResourceLimitError
 from ..mechanics.equations import SystemEquations
 from ..mechanics.validate import check_constraint_values
@@ -137,7 +137,7 @@ def check_mass_matrix(eqs: SystemEquations, q: np.ndarray, G: np.ndarray | None 
     of the null space of ``G``: the free motions must all carry kinetic energy.
     """
     M = np.asarray(eqs.mass_matrix_function(q), dtype=float)
-    Z = scipy.linalg.null_space(G) if G is not None and G.size else np.eye(eqs.nu)
+    Z = null_space(G) if G is not None and G.size else np.eye(eqs.nu)
     if not Z.size:
         return
     K = Z.T @ M @ Z
