@@ -160,8 +160,9 @@ def joint_figure(t, loads: dict[str, np.ndarray], prefix: str, extra=None, title
         peak = max([float(np.abs(np.asarray(ln.get_ydata(), float)).max(initial=0.0)) for ln in ax.lines] or [0.0])
         if ax.lines and peak < 1e-9 * scale:       # zero to round-off (e.g. a hinge's power, eq. 27): say so
             ax.set_ylim(-1, 1)
-            ax.text(0.5, 0.5, f"{what} = 0 to round-off (largest |value| {peak:.1e})", transform=ax.transAxes,
-                    ha="center", va="center", fontsize=9, color="0.3")
+            note = f"{what} = 0" + ("" if peak == 0 else f" to round-off (largest |value| {peak:.1e})")
+            ax.text(0.5, 0.75, note, transform=ax.transAxes, ha="center", va="center", fontsize=9, color="0.3",
+                    bbox={"facecolor": "white", "edgecolor": "none", "alpha": 0.8})
     for ax in fig.axes:
         ax.grid(alpha=0.3)
         if ax.lines:
