@@ -18,7 +18,8 @@ def add_bench_parser(subparsers) -> None:
                                           "stress cases; tables and plots into --out.",
                               epilog=example("ocp-constraints bench --quick"), formatter_class=HelpFormatter)
     b.add_argument("scenes", nargs="*", help="scenes (default: all; --quick: " + ", ".join(QUICK_SCENES) + ")")
-    b.add_argument("--quick", action="store_true", help="a small subset (under 2 minutes)")
+    b.add_argument("--quick", action="store_true",
+                   help="a small subset: about 40 s on an idle machine (41 s of CPU measured)")
     b.add_argument("--target-error", type=float, default=1e-6, metavar="E", help="error to reach (default 1e-6)")
     b.add_argument("--out", default=DEFAULT_OUT, metavar="DIR", help=f"results folder (default {DEFAULT_OUT})")
     b.add_argument("--runs", type=int, default=3, metavar="N", help="runs per setting, median kept (default 3, at least 3)")
