@@ -167,7 +167,8 @@ def joint_figure(t, loads: dict[str, np.ndarray], prefix: str, extra=None, title
         ax.grid(alpha=0.3)
         if ax.lines:
             ax.legend(fontsize=7, ncol=4, loc="best")
-    fig.axes[0].set_title(title or f"joint {prefix}: load on the body at its point (fixed basis), eqs. 26-27")
+    title = title or f"{prefix}: constraint load on the body at its point (fixed basis, eqs. 26-27)"
+    fig.axes[0].set_title(title, fontsize=max(8.0, min(12.0, 12.0 * 72 / len(title))))
     fig.tight_layout()
     return fig
 
