@@ -77,5 +77,6 @@ def test_comparison_uses_only_the_frames_the_measured_record_covers():
     y = np.where(t < 0.45, 1e6, 110.0)              # wild values before the record starts must not count
     out = compare(t, {"medial": y}, measured, bw=100.0)["medial"]
     assert out["frames_compared"] == 6 and out["rmse_bw"] == pytest.approx(0.1, rel=1e-12)
+    assert np.isnan(out["r2"]) and np.isnan(out["r"])          # a constant measured curve: undefined, not -inf
     with pytest.raises(KneeError, match=r"measured loads cover 5 \.\.\. 6 s, which is not the gait cycle 0 \.\.\. 1 s"):
         compare(t, {"medial": y}, (np.array([5.0, 6.0]), np.ones(2), np.ones(2)), bw=100.0)

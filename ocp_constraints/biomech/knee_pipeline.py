@@ -74,8 +74,10 @@ def compare(t, predicted: dict, measured, bw: float) -> dict:
     for k, y in predicted.items():
         y = np.asarray(y)[keep]
         m = np.interp(t, tm, ref[k])
-        out[k] = {"rmse_bw": float(np.sqrt(np.mean((y - m) ** 2)) / bw), "r": float(np.corrcoef(y, m)[0, 1]),
-                  "r2": float(1.0 - np.sum((y - m) ** 2) / np.sum((m - m.mean()) ** 2)),
+        flat = np.ptp(m) == 0 or np.ptp(y) == 0         # r and R^2 undefined for a constant curve: NaN
+        out[k] = {"rmse_bw": float(np.sqrt(np.mean((y - m) ** 2)) / bw),
+                  "r": float("nan") if flat else float(np.corrcoef(y, m)[0, 1]),
+                  "r2": float("nan") if np.ptp(m) == 0 else float(1.0 - np.sum((y - m) ** 2) / np.sum((m - m.mean()) ** 2)),
                   "peak_error_bw": float((y.max() - m.max()) / bw), "peak_predicted_bw": float(y.max() / bw),
                   "peak_measured_bw": float(m.max() / bw), "frames_compared": int(keep.sum())}
     return out
