@@ -26,7 +26,7 @@ Route (issue 6):
 
 Modules: :mod:`.gait_model` (step 1), :mod:`.gait_signals` (2), :mod:`.gait_feet` (3),
 this one (4: the trial, :func:`run_inverse_dynamics`, :func:`compare`) and
-:mod:`.gait_cli` (results files and the ``gait`` command, re-exported here).
+:mod:`.gait_report` (results files; the ``gait`` command is :mod:`ocp_constraints.cli.gait`).
 
 Checked against OpenSim 4.6's InverseDynamicsTool on gait2354 subject01: every one of
 the 23 generalized forces agrees to 0.01 N m (``tests/test_gait.py``).

@@ -1,4 +1,4 @@
-"""``ocp-constraints gait``: results files (summary.json, loads.csv, plots) and the command line."""
+"""Results files of ``ocp-constraints gait``: summary.json, loads.csv and plots."""
 from __future__ import annotations
 
 from pathlib import Path

@@ -10,7 +10,6 @@ are converted with 4.4482216153 N/lbf and expressed in body weights (model mass 
 from __future__ import annotations
 
 import time
-from pathlib import Path
 
 import numpy as np
 
@@ -38,6 +37,25 @@ def gait_cycle(grf, plates_of_right: list[str], name=None) -> tuple[float, float
     if len(onsets) < 2:
         raise KneeError(f"{grf_path}: fewer than two right-foot contacts; no full gait cycle")
     return onsets[0], onsets[1]
+
+
+def gait_phases(grf, plates_of_right: list[str], t0: float, t1: float) -> list[tuple[float, float, str]]:
+    """``(start, end, "stance" | "swing")`` intervals of the right foot in ``t0 ... t1`` (s): stance where
+    its plates' vertical force exceeds 20 N (the threshold of :func:`gait_cycle`)."""
+    from .opensim_files import grf_plates
+
+    loaded = np.zeros(len(grf.time), bool)
+    for pl in grf_plates(grf):
+        if pl.name in plates_of_right:
+            loaded |= pl.force[:, 1] > 20.0
+    keep = (grf.time >= t0) & (grf.time <= t1)
+    t, on = grf.time[keep], loaded[keep]
+    out, start = [], 0
+    for i in range(1, len(t) + 1):
+        if i == len(t) or on[i] != on[start]:
+            out.append((float(t[start]), float(t[min(i, len(t) - 1)]), "stance" if on[start] else "swing"))
+            start = i
+    return out
 
 
 def read_measured(path) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -138,7 +156,9 @@ def run_knee(model, motion, grf, measured=None, muscles_on: bool = True, muscle_
     cycle = {}
 
     def right_cycle(plates, grf_table):
-        cycle["t"] = gait_cycle(grf_table, [p for p, s in plates.items() if s == "right"], grf)
+        right = [p for p, s in plates.items() if s == "right"]
+        cycle["t"] = gait_cycle(grf_table, right, grf)
+        cycle["phases"] = gait_phases(grf_table, right, *cycle["t"])
         return cycle["t"]
 
     gait = run_inverse_dynamics(model, motion, grf, cutoff=cutoff, select=right_cycle)
@@ -174,7 +194,7 @@ def run_knee(model, motion, grf, measured=None, muscles_on: bool = True, muscle_
         res = solve(gait.t, Qc, R, A, F0, muscles_on=muscles_on)
     res.muscles = paths.muscles
     bw = sum(b.mass for b in gait.osim.bodies.values()) * float(np.linalg.norm(gait.osim.gravity))
-    out = {"result": res, "gait": gait, "cycle": (t0, t1), "bw": bw, "F0": F0, "hill": hill, "muscle_model": muscle_model,
+    out = {"result": res, "gait": gait, "cycle": (t0, t1), "phases": cycle["phases"], "bw": bw, "F0": F0, "hill": hill, "muscle_model": muscle_model,
            "method": method, "model_data": data, "passive_hip": (passive_hip, passive),
            "wall_total": time.perf_counter() - clock}
     if measured is not None:
@@ -186,7 +206,9 @@ def run_knee(model, motion, grf, measured=None, muscles_on: bool = True, muscle_
 
 def write_knee_results(run: dict, out, plots: bool = True, inputs: dict | None = None) -> dict:
     from ..output.files import software_versions, write_csv, write_json
+    from ..output.report import write_report
     from ..output.run_folder import RunFolder
+    from ..output.sto import write_sto
 
     run_folder = RunFolder(out)        # written whole: the previous run's files are replaced
     folder = run_folder.begin()
@@ -196,6 +218,11 @@ def write_knee_results(run: dict, out, plots: bool = True, inputs: dict | None =
     if passive is not None:
         cols["passive_hip_flexion_moment"] = passive
     write_csv(folder / "loads.csv", r.t, cols)
+    write_sto(folder / "loads.sto", r.t, cols)        # OpenSim storage files (inDegrees=no)
+    write_sto(folder / "muscle_forces.sto", r.t, {m: r.force[:, i] for i, m in enumerate(r.muscles)})
+    g = run["gait"]
+    if len(g.t) == len(r.t):
+        write_sto(folder / "trajectory.sto", r.t, dict(zip(g.coordinate_names, g.states["p"].T)))
     from .knee_static import RESERVED
 
     method = run.get("method", "static")
@@ -231,7 +258,10 @@ def write_knee_results(run: dict, out, plots: bool = True, inputs: dict | None =
         summary["solve_time_s"] = r.timings["build"] + r.timings["solve"]
     if plots:
         summary["plots"] = [_plot(run, folder)]
+        summary["report"] = "report.html"
     write_json(folder / "summary.json", summary)
+    if plots:
+        write_report(folder, summary)
     run_folder.commit()
     return summary
 
@@ -266,35 +296,21 @@ def _muscle_model_text(run) -> dict:
 
 
 def _plot(run, folder) -> str:
-    import io
-
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-
-    from ..output.files import write_atomic
+    """``knee_contact.png``: predicted and measured contact forces (BW), the gait phases shaded."""
+    from ..output.joint_plots import knee_figure
+    from ..output.plots import save
 
     r, bw = run["result"], run["bw"]
-    fig, axes = plt.subplots(3, 1, figsize=(8, 9), sharex=True)
     meas = run.get("measured")
-    for ax, (name, y) in zip(axes, (("medial", r.medial), ("lateral", r.lateral), ("total", r.total))):
-        ax.plot(r.t, y / bw, label=f"predicted ({METHOD_TEXT[run.get('method', 'static')]}, "
-                                         f"{run.get('muscle_model', 'ideal')} muscles)")
-        if meas is not None:
-            tm, med, lat = meas
-            m = {"medial": med, "lateral": lat, "total": med + lat}[name]
-            keep = (tm >= r.t[0]) & (tm <= r.t[-1])
-            ax.plot(tm[keep], m[keep] / bw, "k--", label="measured (eTibia)")
-        ax.set(ylabel=f"{name} [BW]")
-        ax.grid(alpha=0.3)
-        ax.legend(fontsize=8)
-    axes[-1].set(xlabel="t [s]")
-    buf = io.BytesIO()
-    fig.savefig(buf, format="png", dpi=100)
-    plt.close(fig)
-    write_atomic(Path(folder) / "knee_contact.png", buf.getvalue())
-    return "knee_contact.png"
+    measured = None if meas is None else (meas[0], {"medial": meas[1] / bw, "lateral": meas[2] / bw,
+                                                    "total": (meas[1] + meas[2]) / bw})
+    label = f"{METHOD_TEXT[run.get('method', 'static')]}, {run.get('muscle_model', 'ideal')} muscles"
+    fig = knee_figure(r.t, {"medial": r.medial / bw, "lateral": r.lateral / bw, "total": r.total / bw}, label,
+                      measured, run.get("phases", ()))
+    written: list[str] = []
+    save(fig, folder, "knee_contact.png", written, dpi=100)
+    return written[0]
+
 
 CONDYLE_PARAMETERS = ("medial_cx", "medial_cy", "medial_cz", "lateral_cx", "lateral_cy", "lateral_cz")
 

@@ -57,7 +57,6 @@ class StaticResult(Result):
     ``loads()`` and ``load_about()`` raise a :class:`ModelError` that says so.
     """
 
-
     t: np.ndarray
     muscles: list[str]
     activation: np.ndarray

@@ -57,6 +57,9 @@ def cli_knee(args) -> int:
     os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
     from ..biomech.knee_pipeline import run_knee, write_knee_results
 
+    from ..output.signals import signal_mark
+
+    mark = signal_mark()
     try:
         cutoff = None if getattr(args, "no_filter", False) else getattr(args, "cutoff", 6.0)
         run = run_knee(args.model, args.motion, args.grf, args.measured, muscle_model=args.muscle_model,
@@ -74,6 +77,15 @@ def cli_knee(args) -> int:
     except OcpConstraintsError as exc:
         print(f"error: {exc}", file=sys.stderr)
         return 2
+    except BaseException as exc:   # SIGINT/SIGTERM before the results were complete: say so in --out
+        from ..output.run_folder import write_interrupted_run
+        from ..output.signals import as_interruption
+
+        stop = as_interruption(exc, mark)
+        if stop is None:
+            raise
+        write_interrupted_run(args.out, "knee contact loads", stop, {k: str(v) for k, v in vars(args).items() if k != "handler"})
+        raise stop from None
     for note in (summary.get("timing") or {}).get("notes", []):
         print(f"note: {note}", file=sys.stderr)
     w = summary["wall_time_s"]
