@@ -5,6 +5,7 @@ import os
 import sys
 
 from ..errors import OcpConstraintsError
+from .interruption import write_if_interrupted
 from .help import GAIT, HelpFormatter, example
 
 
@@ -58,13 +59,9 @@ def cli_gait(args) -> int:
         print(f"error: {exc}", file=sys.stderr)
         return 2
     except BaseException as exc:   # SIGINT/SIGTERM before the results were complete: say so in --out
-        from ..output.run_folder import write_interrupted_run
-        from ..output.signals import as_interruption
-
-        stop = as_interruption(exc, mark)
+        stop = write_if_interrupted(exc, mark, args.out, "gait inverse dynamics", args)
         if stop is None:
             raise
-        write_interrupted_run(args.out, "gait inverse dynamics", stop, {k: str(v) for k, v in vars(args).items() if k != "handler"})
         raise stop from None
     for note in (summary.get("timing") or {}).get("notes", []) + [v for k, v in (summary.get("angles") or {}).items()
                                                                    if k == "angle_unit_note"]:

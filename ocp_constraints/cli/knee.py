@@ -6,6 +6,7 @@ import sys
 
 from ..biomech.knee_options import METHOD_TEXT, METHODS, MUSCLE_MODELS
 from ..errors import OcpConstraintsError
+from .interruption import write_if_interrupted
 from .help import JW_MODEL, JW_TRIAL, HelpFormatter, example
 
 
@@ -78,13 +79,9 @@ def cli_knee(args) -> int:
         print(f"error: {exc}", file=sys.stderr)
         return 2
     except BaseException as exc:   # SIGINT/SIGTERM before the results were complete: say so in --out
-        from ..output.run_folder import write_interrupted_run
-        from ..output.signals import as_interruption
-
-        stop = as_interruption(exc, mark)
+        stop = write_if_interrupted(exc, mark, args.out, "knee contact loads", args)
         if stop is None:
             raise
-        write_interrupted_run(args.out, "knee contact loads", stop, {k: str(v) for k, v in vars(args).items() if k != "handler"})
         raise stop from None
     for note in (summary.get("timing") or {}).get("notes", []):
         print(f"note: {note}", file=sys.stderr)
