@@ -128,7 +128,7 @@ def acrobot() -> Minimal:
     dyn = lagrange(q, qd, T, V, tau * (qd[1] - qd[0]))
     x0, xf = [0.0, 0.0, 0.0, 0.0], [math.pi, math.pi, 0.0, 0.0]
     return _minimal("acrobot", dyn, tau, tau**2, p["T"], x0, xf, [(-p["tau_max"], p["tau_max"])],
-                    path=[(q[1] - q[0], -p["elbow_max"], p["elbow_max"])], description="2 angles")
+                    description="2 angles")
 
 
 def cart_double_pendulum() -> Minimal:

@@ -9,7 +9,7 @@ from __future__ import annotations
 G = 9.81
 
 # Two uniform rods hinged at the origin (shoulder, passive) and to each other (elbow, motor).
-ACROBOT = {"m1": 1.0, "m2": 1.0, "l1": 1.0, "l2": 1.0, "T": 4.0, "tau_max": 20.0, "elbow_max": 1e9}
+ACROBOT = {"m1": 1.0, "m2": 1.0, "l1": 1.0, "l2": 1.0, "T": 4.0, "tau_max": 20.0}
 
 # A cart on a rail along E1, pushed by a bounded force, carrying two uniform rods in a chain.
 CART_DOUBLE = {"m0": 1.0, "m1": 0.5, "m2": 0.5, "l1": 0.5, "l2": 0.5, "T": 2.5, "f_max": 60.0, "x_max": 1.5}

@@ -80,8 +80,11 @@ def _bound(ocp, expr, lo, hi) -> None:
         ocp.subject_to(expr >= lo)
 
 
-def collocate(mp: Minimal, N: int, degree: int, ipopt: dict | None = None) -> dict:
+def collocate(mp: Minimal, N: int, degree: int, ipopt: dict | None = None, start=None) -> dict:
     """Radau collocation of degree ``degree`` on ``N`` equal intervals (see the module docstring).
+
+    ``start``: a function of times (s) giving states and controls there, ``(X, U)``, to start from
+    instead of the linear guess (to find the local optimum nearest to another solution).
 
     Each interval is one SX function of its own variables (its start, states, algebraic variables
     and controls at its collocation points); IPOPT gets the NLP's exact Jacobian and Hessian
@@ -128,6 +131,19 @@ def collocate(mp: Minimal, N: int, degree: int, ipopt: dict | None = None) -> di
     guess = np.zeros(n)
     guess[:nx] = mp.guess(0.0)[:, 0]
     guess[(base + np.arange(nx * d)[None, :]).ravel()] = mp.guess(times).T.reshape(N, d * nx).ravel()
+    Us = np.zeros((nu, N * d))
+    if start is not None:
+        Xs, Us = start(np.concatenate([[0.0], times]) * mp.T)
+        guess[:nx] = Xs[:, 0]
+        guess[(base + np.arange(nx * d)[None, :]).ravel()] = Xs[:, 1:].T.ravel()
+        Us = Us[:, 1:]
+        guess[(base + (nx + nz) * d + np.arange(nu * d)[None, :]).ravel()] = Us.T.ravel()
+    # The algebraic variables that fit: alg is affine in z, so z = -(d alg/dz)^-1 alg(x, 0, u).
+    Xg = guess[(base + np.arange(nx * d)[None, :]).ravel()].reshape(N * d, nx).T
+    zero = ca.DM.zeros(nz)
+    solve_z = ca.Function("z", [mp.x, mp.u], [-ca.solve(ca.jacobian(mp.alg, mp.z), ca.substitute(mp.alg, mp.z, zero))])
+    Zg = np.asarray(solve_z.map(N * d)(Xg, Us))
+    guess[(base + nx * d + np.arange(nz * d)[None, :]).ravel()] = Zg.T.ravel()
     res = solver(x0=guess, lbx=lbx, ubx=ubx, lbg=lbg, ubg=ubg)
     stats = solver.stats()
     out = _result(stats["success"], stats["return_status"], stats["iter_count"], float(res["f"]),
