@@ -67,8 +67,7 @@ def check_problem(problem, method) -> Diagnostics:
 def nlp_variables(problem, method) -> int:
     """Decision variables of the transcription (see :class:`~ocp_constraints.ocp.transcription.Layout`)."""
     e = problem.eqs
-    p = len(method.tau)
-    P = method.intervals * (p - 1) + 1
+    P = method.point_count
     n_acc = 1 if method.accelerations_from_speeds is not None else P
     return ((e.nq + e.nu + e.nc + e.inputs.numel()) * P + e.nu * n_acc + e.phi.numel() * (P - 1)
             + int(problem.t_final_bounds is not None))

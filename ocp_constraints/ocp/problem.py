@@ -227,10 +227,10 @@ class OptimalControlProblem:
         from .transcription import transcribe
 
         key = (method.label, method.intervals, None if method.mesh is None else tuple(method.mesh),
-               self.structure_key())
+               getattr(method, "degrees", None), self.structure_key())
         cache = self.__dict__.setdefault("_transcriptions", {})
         if key not in cache:
-            for old in [k for k in cache if k[:3] == key[:3]]:
+            for old in [k for k in cache if k[:4] == key[:4]]:
                 del cache[old]     # the problem changed: its old NLP for this method is of no use
             cache[key] = transcribe(self, method)
         return cache[key]

@@ -11,11 +11,17 @@ tie ``X`` and ``D`` together and the quadrature weights of integral costs:
   ``X_1 - X_0 = h/6 (D_0 + 4 D_m + D_1)`` (fourth order);
 - :class:`Radau`: Legendre-Gauss-Radau collocation of degree ``d``,
   ``h D_j = sum_r C_rj X_r`` at the ``d`` Radau points (order ``2d - 1`` at the mesh
-  points).
+  points); ``degrees=(d_0, d_1, ...)`` gives each interval its own degree (hp meshes,
+  :mod:`ocp_constraints.ocp.mesh_refinement`).
+
+Every scheme answers :meth:`Scheme.interval_scheme` (the scheme of one interval: itself,
+or a uniform Radau of that interval's degree) and :attr:`Scheme.points_per_interval`, so
+the transcription needs no case for non-uniform meshes or degrees.
 """
 from __future__ import annotations
 
 from dataclasses import dataclass, field
+from functools import lru_cache
 
 import casadi as ca
 import numpy as np
@@ -105,6 +111,20 @@ class Scheme:
     def order(self) -> int:
         raise NotImplementedError
 
+    def interval_scheme(self, k: int) -> "Scheme":
+        """The scheme of interval ``k`` (its ``tau``, defects, weights): the same on every interval here."""
+        return self
+
+    @property
+    def points_per_interval(self) -> np.ndarray:
+        """Points of each interval, both ends included (the last shared with the next interval)."""
+        return np.full(self.intervals, len(self.tau), dtype=int)
+
+    @property
+    def point_count(self) -> int:
+        """Collocation points over the whole mesh (unique times)."""
+        return int(np.sum(self.points_per_interval - 1) + 1)
+
 
 @dataclass(frozen=True)
 class Trapezoidal(Scheme):
@@ -151,17 +171,40 @@ class HermiteSimpson(Scheme):
 
 @dataclass(frozen=True)
 class Radau(Scheme):
+    """Legendre-Gauss-Radau collocation of ``degree`` on every interval, or of ``degrees[k]`` on interval ``k``."""
+
     degree: int = 3
+    degrees: tuple[int, ...] | None = None
 
     def __post_init__(self) -> None:
         super().__post_init__()
+        if self.degrees is not None:
+            degrees = tuple(self.degrees)
+            if len(degrees) != self.intervals or not all(isinstance(d, (int, np.integer)) and 1 <= d <= 9 for d in degrees):
+                raise ModelError(f"Radau degrees must be one whole number from 1 to 9 per interval ({self.intervals} "
+                                 f"intervals), got {self.degrees!r}")
+            degrees = tuple(int(d) for d in degrees)
+            # One degree everywhere is the uniform scheme: the same label, NLP and cache key.
+            object.__setattr__(self, "degrees", None if len(set(degrees)) == 1 else degrees)
+            object.__setattr__(self, "degree", degrees[0] if len(set(degrees)) == 1 else max(degrees))
         if not (isinstance(self.degree, int) and 1 <= self.degree <= 9):
             raise ModelError(f"Radau degree must be a whole number from 1 to 9, got {self.degree!r}")
         object.__setattr__(self, "tau", np.array([0.0, *ca.collocation_points(self.degree, "radau")]))
 
     @property
     def label(self) -> str:
+        if self.degrees is not None:
+            return f"radau{min(self.degrees)}-{max(self.degrees)}"
         return f"radau{self.degree}"
+
+    def interval_scheme(self, k: int) -> "Scheme":
+        return self if self.degrees is None else _uniform_radau(self.degrees[k])
+
+    @property
+    def points_per_interval(self) -> np.ndarray:
+        if self.degrees is None:
+            return super().points_per_interval
+        return np.asarray(self.degrees, dtype=int) + 1
 
     def defects(self, X, D, h):
         C = self.derivative_matrix
@@ -173,6 +216,10 @@ class Radau(Scheme):
 
     @property
     def accelerations_from_speeds(self) -> np.ndarray | None:
+        if self.degrees is not None:
+            # Mixed degrees: the transcription takes each interval's own matrix; this says only
+            # whether every interval gives u' from its speeds (else every point has variables).
+            return self.derivative_matrix if max(self.degrees) <= 4 else None
         # Up to degree 4 fewer variables make IPOPT's factorization cheaper; from degree 6
         # on, the denser Hessian blocks (each point's dynamics reads all the interval's
         # speeds) cost more than they save: per iteration on the swing-up, N = 20, degree 3
@@ -200,6 +247,12 @@ class Radau(Scheme):
     @property
     def order(self) -> int:
         return 2 * self.degree - 1
+
+
+@lru_cache(maxsize=None)
+def _uniform_radau(degree: int) -> Radau:
+    """The one-interval Radau scheme of ``degree`` (its tau, matrices and weights), shared."""
+    return Radau(1, None, degree=degree)
 
 
 def scheme_from_name(name: str, intervals: int = 50, degree: int = 3, mesh=None) -> Scheme:

@@ -89,15 +89,16 @@ class OCPSolution(Result):
         polynomials of those schemes have the same degree).
         """
         values = self.sample(name)
-        scheme = self.transcription.scheme
-        p = len(scheme.tau)
+        tr = self.transcription
+        scheme = tr.scheme
         mesh = scheme.mesh_fractions * self.t_final
         times = np.atleast_1d(np.asarray(times, dtype=float))
         k = np.clip(np.searchsorted(mesh, times, side="right") - 1, 0, scheme.intervals - 1)
         out = np.empty_like(times)
         for n, (tk, kk) in enumerate(zip(times, k)):
-            idx = np.arange(kk * (p - 1), kk * (p - 1) + p)
+            idx = np.asarray(tr.interval_points(kk))     # an hp mesh: each interval its own degree
             ts, vs = self.t[idx], values[idx]
+            p = len(idx)
             out[n] = sum(vs[j] * np.prod([(tk - ts[s]) / (ts[j] - ts[s]) for s in range(p) if s != j]) for j in range(p))
         return out
 

@@ -87,24 +87,27 @@ class Transcription:
         self.eqs = e
         nx = e.nq + e.nu
         n_in = e.inputs.numel()
-        p = len(scheme.tau)
         N = scheme.intervals
-        P = N * (p - 1) + 1
+        # Each interval's own scheme (one for all on a uniform mesh; its degree on an hp mesh)
+        # and where its points start: the last point of an interval is the first of the next.
+        self.local = [scheme.interval_scheme(k) for k in range(N)]
+        counts = scheme.points_per_interval
+        self.offsets = np.concatenate([[0], np.cumsum(counts - 1)]).astype(int)
+        P = int(self.offsets[-1] + 1)
         # Where the scheme gives u' from the speeds (Radau up to degree 4), accelerations
         # after t0 are expressions, not variables: a smaller KKT system, the same NLP.
-        self.accelerations_from_speeds = scheme.accelerations_from_speeds
-        n_acc = 1 if self.accelerations_from_speeds is not None else P
+        self.from_speeds = scheme.accelerations_from_speeds is not None
+        n_acc = 1 if self.from_speeds else P
         self.layout = Layout(P, nx, e.nu, e.nc, e.phi.numel(), n_in, problem.t_final_bounds is not None, n_acc)
         mesh = scheme.mesh_fractions
         # Normalized time of every point, and its quadrature weight (times the horizon).
         frac = np.zeros(P)
         quad = np.zeros(P)
-        weights = scheme.weights
-        for k in range(N):
+        for k, local in enumerate(self.local):
             hk = mesh[k + 1] - mesh[k]
-            for j in range(p):
-                frac[k * (p - 1) + j] = mesh[k] + scheme.tau[j] * hk
-                quad[k * (p - 1) + j] += weights[j] * hk
+            points = self.interval_points(k)
+            frac[points] = mesh[k] + local.tau * hk
+            quad[points] += local.weights * hk
         self.fractions, self.quadrature = frac, quad
 
         self.block = BlockNLP(sum(self.layout.sizes()), self._elements())
@@ -117,6 +120,17 @@ class Transcription:
         self._solver = None
         self._solver_options: dict | None = None
         self.build_time = time.perf_counter() - started
+
+    def interval_points(self, k: int) -> range:
+        """The points of interval ``k``, both ends included (the last shared with the next)."""
+        return range(int(self.offsets[k]), int(self.offsets[k + 1]) + 1)
+
+    def _groups(self) -> dict:
+        """Intervals sharing one local scheme (one element kind each): ``{label: (scheme, [k, ...])}``."""
+        out: dict = {}
+        for k, local in enumerate(self.local):
+            out.setdefault(local.label, (local, []))[1].append(k)
+        return out
 
     # -- the NLP as elements repeated over the mesh (see nlp_assembly) --------------------------
     def _indices(self) -> dict:
@@ -144,7 +158,7 @@ class Transcription:
                             w=ca.SX.sym("w", lay.n_in), none=ca.SX.sym("none", 0),
                             T_z=[T] if lay.free_time else [], T_c=[] if lay.free_time else [T],
                             T_value=[] if lay.free_time else [self.problem.t_final])
-        return [*self._point_elements(s), self._interval_element(s), *self._end_elements(s)]
+        return [*self._point_elements(s), *self._interval_elements(s), *self._end_elements(s)]
 
     def _point_elements(self, s) -> list:
         """Dynamics, velocity, position and path rows, and the integrand, at every point."""
@@ -160,52 +174,62 @@ class Transcription:
         lo = [0.0] * n_eq + [pc.lower for pc in pr.path_constraints]
         hi = [0.0] * n_eq + [pc.upper for pc in pr.path_constraints]
         cost = quad * T * s.point["integrand"](x, lam, w, t) if pr.integral_terms else ca.SX(0)
-        C = self.accelerations_from_speeds
-        at_points = range(lay.n_points) if C is None else range(1)
+        at_points = range(1) if self.from_speeds else range(lay.n_points)
         out = [element(
             "point", ca.vertcat(x, a, lam, w, *s.T_z), ca.vertcat(frac, quad, *s.T_c), rows, cost,
             [np.concatenate([index["x"](i), index["a"](i), index["lam"](i), index["w"](i), index["T"]]) for i in at_points],
             [[self.fractions[i], self.quadrature[i], *s.T_value] for i in at_points], lo, hi)]
-        if C is None:
+        if not self.from_speeds:
             return out
-        # After t0: a = u' from the interval's speeds, (sum_r C[r, j] u_r) / h.
-        p, mesh = len(scheme.tau), scheme.mesh_fractions
-        us = ca.SX.sym("u_interval", e.nu, p)
-        column, h = ca.SX.sym("C_j", p), ca.SX.sym("h")
-        rows, cost = ca.substitute([rows, cost], [a], [us @ column / (h * T)])
-        instances = [(k, j, k * (p - 1) + j) for k in range(scheme.intervals) for j in range(1, p)]
-        out.append(element(
-            "collocation_point", ca.vertcat(x, lam, w, ca.vec(us), *s.T_z), ca.vertcat(frac, quad, column, h, *s.T_c),
-            rows, cost,
-            [np.concatenate([index["x"](i), index["lam"](i), index["w"](i),
-                             *(index["x"](r)[e.nq :] for r in _interval_points(k, p)), index["T"]]) for k, j, i in instances],
-            [[self.fractions[i], self.quadrature[i], *C[:, j], mesh[k + 1] - mesh[k], *s.T_value] for k, j, i in instances],
-            lo, hi))
+        # After t0: a = u' from the interval's speeds, (sum_r C[r, j] u_r) / h; one element
+        # kind per interval degree (the column C_j has p entries).
+        mesh, groups = scheme.mesh_fractions, self._groups()
+        for label, (local, intervals) in groups.items():
+            p, C = len(local.tau), local.derivative_matrix
+            us = ca.SX.sym("u_interval", e.nu, p)
+            column, h = ca.SX.sym("C_j", p), ca.SX.sym("h")
+            rows_k, cost_k = ca.substitute([rows, cost], [a], [us @ column / (h * T)])
+            instances = [(k, j, self.offsets[k] + j) for k in intervals for j in range(1, p)]
+            out.append(element(
+                "collocation_point" if len(groups) == 1 else f"collocation_point_{label}",
+                ca.vertcat(x, lam, w, ca.vec(us), *s.T_z), ca.vertcat(frac, quad, column, h, *s.T_c),
+                rows_k, cost_k,
+                [np.concatenate([index["x"](i), index["lam"](i), index["w"](i),
+                                 *(index["x"](r)[e.nq :] for r in self.interval_points(k)), index["T"]])
+                 for k, j, i in instances],
+                [[self.fractions[i], self.quadrature[i], *C[:, j], mesh[k + 1] - mesh[k], *s.T_value] for k, j, i in instances],
+                lo, hi))
         return out
 
-    def _interval_element(self, s):
-        """The scheme's defects on every interval."""
+    def _interval_elements(self, s) -> list:
+        """The scheme's defects on every interval (one element kind per interval degree)."""
         e, lay, scheme, index = self.eqs, self.layout, self.scheme, s.index
-        p, mesh, C = len(scheme.tau), scheme.mesh_fractions, self.accelerations_from_speeds
-        xs = [ca.SX.sym(f"x{j}", lay.nx) for j in range(p)]
-        accelerations = [ca.SX.sym(f"a{j}", e.nu) for j in range(p)]
-        gammas = [ca.SX.sym(f"gamma{j}", lay.nh) for j in range(p)]
-        fractions, h = ca.SX.sym("frac", p), ca.SX.sym("h")
-        D = [ca.vertcat(s.point["kinematics"](xs[j], gammas[j], fractions[j] * s.T), accelerations[j]) for j in range(p)]
-        defects = scheme.defects(xs, D, h * s.T)
-        if C is not None:
-            # The speed rows hold by construction of a; only the coordinate rows remain.
-            defects, accelerations = [d[: e.nq] for d in defects], []
+        mesh, groups = scheme.mesh_fractions, self._groups()
+        out = []
+        for label, (local, intervals) in groups.items():
+            p = len(local.tau)
+            xs = [ca.SX.sym(f"x{j}", lay.nx) for j in range(p)]
+            accelerations = [ca.SX.sym(f"a{j}", e.nu) for j in range(p)]
+            gammas = [ca.SX.sym(f"gamma{j}", lay.nh) for j in range(p)]
+            fractions, h = ca.SX.sym("frac", p), ca.SX.sym("h")
+            D = [ca.vertcat(s.point["kinematics"](xs[j], gammas[j], fractions[j] * s.T), accelerations[j]) for j in range(p)]
+            defects = local.defects(xs, D, h * s.T)
+            if self.from_speeds:
+                # The speed rows hold by construction of a; only the coordinate rows remain.
+                defects, accelerations = [d[: e.nq] for d in defects], []
 
-        def variables(k: int) -> np.ndarray:
-            points = _interval_points(k, p)
-            return np.concatenate([*(index["x"](i) for i in points), *(index["a"](i) for i in points if C is None),
-                                   *(index["gamma"](i) for i in points), index["T"]])
+            def variables(k: int) -> np.ndarray:
+                points = self.interval_points(k)
+                return np.concatenate([*(index["x"](i) for i in points),
+                                       *(index["a"](i) for i in points if not self.from_speeds),
+                                       *(index["gamma"](i) for i in points), index["T"]])
 
-        return element("interval", ca.vertcat(*xs, *accelerations, *gammas, *s.T_z), ca.vertcat(fractions, h, *s.T_c),
-                       ca.vertcat(*defects), 0, [variables(k) for k in range(scheme.intervals)],
-                       [[*self.fractions[list(_interval_points(k, p))], mesh[k + 1] - mesh[k], *s.T_value]
-                        for k in range(scheme.intervals)])
+            out.append(element("interval" if len(groups) == 1 else f"interval_{label}",
+                               ca.vertcat(*xs, *accelerations, *gammas, *s.T_z), ca.vertcat(fractions, h, *s.T_c),
+                               ca.vertcat(*defects), 0, [variables(k) for k in intervals],
+                               [[*self.fractions[list(self.interval_points(k))], mesh[k + 1] - mesh[k], *s.T_value]
+                                for k in intervals]))
+        return out
 
     def _end_elements(self, s) -> list:
         """Acceleration-level constraints at t0, Radau's input extrapolation, boundary values, final time."""
@@ -217,7 +241,7 @@ class Transcription:
         if not scheme.first_point_has_controls and lay.n_in and not ca.depends_on(ca.vertcat(ca.vec(e.G), e.e), e.inputs):
             # Radau never uses inputs at t0 in its defects: take the first interval's input
             # polynomial there, so that lambda_0 (from the acceleration constraint) is consistent.
-            ell = scheme.start_extrapolation
+            ell = self.local[0].start_extrapolation
             ws = [ca.SX.sym(f"w{j}", lay.n_in) for j in range(len(ell) + 1)]
             out.append(element("extrapolation", ca.vertcat(*ws), none, ws[0] - sum(ell[j] * ws[j + 1] for j in range(len(ell))), 0,
                                [np.concatenate([index["w"](j) for j in range(len(ell) + 1)])], np.zeros((1, 0))))
@@ -317,16 +341,15 @@ class Transcription:
     def accelerations(self, X: np.ndarray, A: np.ndarray, t_final: float) -> np.ndarray:
         """``u'`` at every point (``nu x P``) from the state and acceleration blocks of a
         decision vector: the variables, or from the speeds where the scheme gives them."""
-        C = self.accelerations_from_speeds
-        if C is None:
+        if not self.from_speeds:
             return A
-        P, p, nq = self.layout.n_points, len(self.scheme.tau), self.eqs.nq
-        out = np.zeros((self.eqs.nu, P))
+        nq = self.eqs.nq
+        out = np.zeros((self.eqs.nu, self.layout.n_points))
         out[:, 0] = A[:, 0]
         mesh = self.scheme.mesh_fractions
-        for k in range(self.scheme.intervals):
-            points = list(_interval_points(k, p))
-            out[:, points[1:]] = X[nq:, points] @ C[:, 1:] / ((mesh[k + 1] - mesh[k]) * t_final)
+        for k, local in enumerate(self.local):
+            points = list(self.interval_points(k))
+            out[:, points[1:]] = X[nq:, points] @ local.derivative_matrix[:, 1:] / ((mesh[k + 1] - mesh[k]) * t_final)
         return out
 
     # -- solve ----------------------------------------------------------------------------------
@@ -360,11 +383,6 @@ class Transcription:
                 solution,
             )
         return solution
-
-
-def _interval_points(k: int, p: int) -> range:
-    """The points of interval ``k`` (``p`` per interval, the last shared with the next)."""
-    return range(k * (p - 1), k * (p - 1) + p)
 
 
 def transcribe(problem, scheme: Scheme) -> Transcription:
