@@ -106,6 +106,19 @@ def compare(t, predicted: dict, measured, bw: float) -> dict:
 METHODS = ("static", "collocation")
 
 
+class _Phases:
+    """Wall and CPU time (s) of the steps of a run, in order: ``phase(name)`` closes the step ``name``."""
+
+    def __init__(self):
+        self.table: dict[str, dict[str, float]] = {}
+        self._last = (time.perf_counter(), time.process_time())
+
+    def __call__(self, name: str) -> None:
+        now = (time.perf_counter(), time.process_time())
+        self.table[name] = {"wall": now[0] - self._last[0], "cpu": now[1] - self._last[1]}
+        self._last = now
+
+
 def run_knee(model, motion, grf, measured=None, muscles_on: bool = True, muscle_model: str = "ideal",
              method: str = "static", cutoff: float | None = 6.0, implant_meshes=None, build_model_data: bool = True,
              passive_hip: str = "riener-edrich-1999", parameters: dict | None = None):
@@ -152,7 +165,9 @@ def run_knee(model, motion, grf, measured=None, muscles_on: bool = True, muscle_
     from .knee_muscles import MusclePaths, muscle_parameters
 
     clock = time.perf_counter()
+    phase = _Phases()
     data = knee_model_data(model, implant_meshes, build=build_model_data)
+    phase("model data")
     cycle = {}
 
     def right_cycle(plates, grf_table):
@@ -162,12 +177,17 @@ def run_knee(model, motion, grf, measured=None, muscles_on: bool = True, muscle_
         return cycle["t"]
 
     gait = run_inverse_dynamics(model, motion, grf, cutoff=cutoff, select=right_cycle)
+    phase("inverse dynamics")
     t0, t1 = cycle["t"]
     paths = MusclePaths(data.muscle_paths)
+    phase("muscle paths")
     params = muscle_parameters(model, paths.muscles)
     F0 = np.array([params[m].max_isometric_force for m in paths.muscles])
-    Qc, R, A = frame_data(gait, paths, contact_matrix_function({**default_parameters(), **data.geometry,
-                                                                        **overrides}))
+    phase("muscle parameters")
+    contact_A = contact_matrix_function({**default_parameters(), **data.geometry, **overrides})
+    phase("contact matrix function")
+    Qc, R, A = frame_data(gait, paths, contact_A)
+    phase("frame data")
     passive = None
     if passive_hip != "none":           # passive structures carry part of the hip flexion moment
         from .knee_passive import passive_hip_moment
@@ -192,11 +212,12 @@ def run_knee(model, motion, grf, measured=None, muscles_on: bool = True, muscle_
         res = solve(gait.t, Qc, R, A, hill.active, muscles_on=muscles_on, passive=hill.passive)
     else:
         res = solve(gait.t, Qc, R, A, F0, muscles_on=muscles_on)
+    phase(method)
     res.muscles = paths.muscles
     bw = sum(b.mass for b in gait.osim.bodies.values()) * float(np.linalg.norm(gait.osim.gravity))
     out = {"result": res, "gait": gait, "cycle": (t0, t1), "phases": cycle["phases"], "bw": bw, "F0": F0, "hill": hill, "muscle_model": muscle_model,
            "method": method, "model_data": data, "passive_hip": (passive_hip, passive),
-           "wall_total": time.perf_counter() - clock}
+           "wall_total": time.perf_counter() - clock, "step_times": phase.table}
     if measured is not None:
         meas = read_measured(measured)
         out["measured"] = meas
