@@ -34,6 +34,7 @@ import numpy as np
 
 from .bodies import Point
 from ..errors import ModelError
+from .joint_maps import record
 from .model import Model
 from .rotations import unit_vector
 
@@ -214,6 +215,8 @@ def revolute(model: Model, name: str, point: Point, axis=(0, 0, 1), anchor=None,
     pair = _pair(name, point, other, anchor)
     _pin(model, pair)
     _keep_axis(model, pair, n, nb)
+    record(model, name, "revolute", point, other, pair.x2 if other is None else None, np.asarray(n).ravel(),
+           body_axis=np.asarray(nb).ravel())
 
 
 def universal(model: Model, name: str, point: Point, other: Point | None = None, *, axis=(1, 0, 0),
@@ -282,6 +285,8 @@ def prismatic(model: Model, name: str, point: Point, other: Point | None = None,
     for k, a in enumerate(_complement(n)):
         _slide(model, pair, f"n{k + 1}", a)
     _lock_rotation(model, pair, R0)
+    record(model, name, "prismatic", point, other, pair.x2 if other is None else None, np.asarray(n).ravel(),
+           R0=np.asarray(R0))
 
 
 def planar(model: Model, name: str, point: Point, other: Point | None = None, *, normal=(0, 0, 1),
@@ -312,3 +317,4 @@ def weld(model: Model, name: str, point: Point, other: Point | None = None, *, a
     pair = _pair(name, point, other, anchor)
     _pin(model, pair)
     _lock_rotation(model, pair, R0)
+    record(model, name, "weld", point, other, pair.x2 if other is None else None, R0=np.asarray(R0))

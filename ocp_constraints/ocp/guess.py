@@ -97,7 +97,7 @@ def from_solution(tr, solution) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     pr, other = tr.problem, solution.transcription.problem
     for what, ours, theirs in (("coordinates", pr.model.coordinate_names, other.model.coordinate_names),
                                ("inputs", list(pr.model.inputs), list(other.model.inputs)),
-                               ("constraints", tr.eqs.constraint_names, solution.transcription.eqs.constraint_names)):
+                               ("constraints", tr.eqs.constraint_names, solution.trajectory.eqs.constraint_names)):
         if list(ours) != list(theirs):
             raise ModelError(f"warm_start: the solution's model '{other.model.name}' has {what} {list(theirs)}, "
                              f"this problem's model '{pr.model.name}' has {list(ours)}; pass a solution of the same model")

@@ -51,6 +51,12 @@ class OptimalControlProblem:
         Fixed horizon (s), or the initial guess of a free one.
     t_final_bounds
         ``(lower, upper)`` makes the final time a decision variable.
+    coordinates
+        ``"maximal"`` (default): every body's coordinates and speeds, every constraint with its
+        multiplier. ``"joint"``: bodies on library joints (revolute, prismatic, weld) placed by
+        their joint coordinates, whose constraints then hold identically and leave the NLP
+        (:mod:`~ocp_constraints.ocp.joint_transcription`, paper sec. 5); names, loads and
+        results stay those of the bodies.
     """
 
     model: Model
@@ -63,10 +69,13 @@ class OptimalControlProblem:
     initial_values: dict[str, float] = field(default_factory=dict)
     final_values: dict[str, float] = field(default_factory=dict)
     guess: dict[str, Callable[[np.ndarray], np.ndarray]] = field(default_factory=dict)
+    coordinates: str = "maximal"
 
     def __post_init__(self) -> None:
         if not (np.isfinite(self.t_final) and self.t_final > 0):
             raise ModelError(f"t_final must be a positive number of seconds, got {self.t_final!r}")
+        if self.coordinates not in ("maximal", "joint"):
+            raise ModelError(f"coordinates must be 'maximal' or 'joint', got {self.coordinates!r}")
         self.eqs = SystemEquations(self.model)
         self.lam = ca.SX.sym("lam", self.eqs.nc)
         e = self.eqs
@@ -186,7 +195,10 @@ class OptimalControlProblem:
         return (tuple((id(term.expression), term.weight) for term in self.integral_terms),
                 tuple((id(c.expression), c.lower, c.upper) for c in self.path_constraints),
                 self.time_weight, tuple(self.initial_values), tuple(self.final_values),
-                self.t_final_bounds is not None, None if self.t_final_bounds is not None else self.t_final)
+                self.t_final_bounds is not None, None if self.t_final_bounds is not None else self.t_final,
+                # In joint coordinates a bound on a body coordinate or speed is a path row of the NLP.
+                self.coordinates, () if self.coordinates == "maximal" else tuple(sorted(
+                    (n, b) for n, b in self.bounds.items() if n not in self.model.inputs)))
 
     def solve(self, method, ipopt_options: dict | None = None, warm_start=None, *, check: bool = True,
               progress: bool | None = None, starts: int = 1, seed: int = 0, client=None):
@@ -225,6 +237,11 @@ class OptimalControlProblem:
     def transcription(self, method):
         """The NLP of this problem with ``method``, built once per method and :meth:`structure_key`."""
         from .transcription import transcribe
+
+        if self.coordinates not in ("maximal", "joint"):
+            raise ModelError(f"coordinates must be 'maximal' or 'joint', got {self.coordinates!r}")
+        if self.coordinates == "joint":
+            from .joint_transcription import JointTranscription as transcribe
 
         key = (method.label, method.intervals, None if method.mesh is None else tuple(method.mesh),
                getattr(method, "degrees", None), self.structure_key())

@@ -107,7 +107,7 @@ class OCPSolution(Result):
         """Work of each joint load over the horizon (J): the scheme's quadrature of ``power``."""
         quad = self.transcription.quadrature * self.t_final
         loads = self.loads()
-        return {ch.prefix: float(quad @ loads[f"{ch.prefix}.power"]) for ch in self.transcription.eqs.load_channels}
+        return {ch.prefix: float(quad @ loads[f"{ch.prefix}.power"]) for ch in self.trajectory.eqs.load_channels}
 
     def reintegrate(self, dt: float | None = None) -> dict:
         """Forward-simulate the optimal inputs from the initial state and report the deviation.
@@ -119,8 +119,8 @@ class OCPSolution(Result):
         """
         from ..dynamics.simulate import SimulationOptions, simulate
 
-        eqs = self.transcription.eqs
-        names = list(self.transcription.problem.model.inputs)
+        eqs = self.trajectory.eqs      # the bodies' equations (also for a joint-coordinate transcription)
+        names = list(eqs.model.inputs)
         step = dt or self.t_final / (20 * self.transcription.scheme.intervals)
 
         def inputs(t: float) -> np.ndarray:

@@ -1,0 +1,178 @@
+"""Direct collocation in joint coordinates: ``OptimalControlProblem(..., coordinates="joint")``.
+
+The same transcription as :mod:`.transcription` (same schemes, elements, Posa slacks, IPOPT),
+of the equations in joint coordinates (:class:`~ocp_constraints.mechanics.generalized.JointCoordinates`,
+paper sec. 5, eqs. 34-44): per point the joint coordinates and speeds instead of every body's
+six and six, and multipliers and slacks only for the constraints the joints' parameterizations
+do not satisfy identically (loop closures, contacts, constraints written by hand).
+
+The problem is stated as always, in the bodies' names: objectives, path constraints, bounds,
+boundary values and guesses on ``rod.psi``, ``rod.omega_z``, ``problem.multiplier("hinge.v2")``,
+``problem.joint_force("hinge")``. Here they become expressions of the joint coordinates: a body
+coordinate or speed through the joint maps, a joint's multiplier through its body's balance
+(:attr:`JointCoordinates.multiplier_expression`, with the accelerations of the reduced dynamics),
+built only where a term asks for one. A bound on a body coordinate or speed becomes a path
+constraint. The solution is handed back in the bodies' coordinates with every multiplier, so
+``sol.sample``, ``sol.loads()``, warm starts and results files are those of the maximal form.
+"""
+from __future__ import annotations
+
+from dataclasses import replace
+from types import SimpleNamespace
+
+import casadi as ca
+import numpy as np
+
+from ..errors import ModelError, OCPSolveError
+from ..mechanics.generalized import JointCoordinates
+from .guess import consistent_guess
+from .solution import OCPSolution
+from .transcription import Transcription
+from ..dynamics.trajectory import Trajectory
+
+
+class ReducedProblem:
+    """A view of an :class:`OptimalControlProblem` in joint coordinates (what the transcription reads)."""
+
+    def __init__(self, problem, reduced: JointCoordinates):
+        self.original, self.eqs = problem, reduced
+        self.lam = reduced.multiplier_symbols[1]
+        self.integral_terms = [replace(t, expression=self.translate(t.expression)) for t in problem.integral_terms]
+        self.path_constraints = [replace(c, expression=self.translate(c.expression)) for c in problem.path_constraints]
+        names = set(problem.model.coordinate_names + problem.model.speed_names)
+        # Body coordinates and speeds are expressions here, not variables: their bounds are path rows.
+        self.state_bounds = {n: b for n, b in problem.bounds.items() if n in names}
+        for n, (lo, hi) in self.state_bounds.items():
+            self.path_constraints.append(SimpleNamespace(label=f"bound on {n}", expression=self.translate(problem.quantity(n)),
+                                                         lower=lo, upper=hi))
+
+    def __getattr__(self, name):
+        return getattr(self.original, name)
+
+    def translate(self, expression) -> ca.SX:
+        """A maximal expression (bodies' ``q, u``, multipliers, inputs, t) in joint coordinates."""
+        r, pr = self.eqs, self.original
+        out = r.substitute(ca.SX(expression))
+        if ca.depends_on(out, pr.lam):
+            a, lam_r = r.multiplier_symbols
+            lam = ca.substitute(r.multiplier_expression, a, r.forward_accelerations)
+            out = ca.substitute(out, pr.lam, lam)
+        return out
+
+    def quantity(self, name: str) -> ca.SX:
+        return self.translate(self.original.quantity(name))
+
+
+class JointTranscription(Transcription):
+    """The NLP of a problem in joint coordinates; solutions come back in the bodies' coordinates."""
+
+    def __init__(self, problem, scheme):
+        self.user_problem = problem
+        self.reduced = JointCoordinates(problem.eqs)
+        super().__init__(ReducedProblem(problem, self.reduced), scheme)
+
+    # -- bounds ----------------------------------------------------------------------------------
+    def _bounds(self, x0: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Inputs' bounds on the input variables, the free final time's; state bounds are path rows."""
+        lay, pr = self.layout, self.user_problem
+        lo = [np.full(n, -np.inf) for n in lay.sizes()]
+        hi = [np.full(n, np.inf) for n in lay.sizes()]
+        names_w = list(pr.model.inputs)
+        for name, (a, b) in pr.bounds.items():
+            if name in names_w:
+                r = names_w.index(name)
+                lo[3][r :: lay.n_in], hi[3][r :: lay.n_in] = a, b
+            elif name not in self.problem.state_bounds:
+                raise ModelError(f"bound on '{name}': only coordinates, speeds and inputs take bounds; use subject_to "
+                                 f"for rates")
+        if lay.free_time:
+            lo[5][:], hi[5][:] = pr.t_final_bounds
+        return np.concatenate(lo), np.concatenate(hi)
+
+    # -- guesses ---------------------------------------------------------------------------------
+    def initial_guess(self) -> np.ndarray:
+        """The maximal form's consistent start (:func:`.guess.consistent_guess` on the bodies'
+        coordinates), carried to joint coordinates (:meth:`_from_maximal`)."""
+        pr, e = self.user_problem, self.user_problem.eqs
+        t = self.fractions * pr.t_final
+        P = len(t)
+        X = np.full((e.nq + e.nu, P), np.nan)
+        for r, n in enumerate(pr.model.coordinate_names + pr.model.speed_names):
+            if n in pr.guess:
+                X[r] = np.broadcast_to(pr.guess[n](t), t.shape)
+            elif r < e.nq:
+                a = pr.initial_values.get(n, pr.final_values.get(n, 0.0))
+                X[r] = a + (pr.final_values.get(n, a) - a) * self.fractions
+        W = np.full((e.inputs.numel(), P), np.nan)
+        for r, n in enumerate(pr.model.inputs):
+            if n in pr.guess:
+                W[r] = np.broadcast_to(pr.guess[n](t), t.shape)
+        maximal = SimpleNamespace(eqs=e, problem=pr, fractions=self.fractions, layout=SimpleNamespace(n_acc=P),
+                                  accelerations=lambda X, A, t_final: A)
+        X, _, L, W = consistent_guess(maximal, X, W, pr.t_final)
+        return self._from_maximal(X, L, W, pr.t_final)
+
+    def guess_from(self, solution: OCPSolution) -> np.ndarray:
+        """A start from a solution of this problem (maximal or joint coordinates, any mesh or scheme)."""
+        if getattr(solution, "transcription", None) is self:
+            return np.asarray(solution.decision_vector, float)
+        if not isinstance(solution, OCPSolution):
+            raise ModelError(f"warm_start must be a solution from problem.solve (an OCPSolution, or an "
+                             f"OCPSolveError's .solution), got {type(solution).__name__}")
+        pr, e = self.user_problem, self.user_problem.eqs
+        theirs = solution.trajectory.eqs
+        if theirs.constraint_names != e.constraint_names or list(theirs.model.inputs) != list(pr.model.inputs):
+            raise ModelError(f"warm_start: the solution is of model '{theirs.model.name}' with constraints "
+                             f"{theirs.constraint_names}; pass a solution of this problem's model '{pr.model.name}'")
+        t = self.fractions * solution.t_final
+        X = np.array([solution.interpolate(n, t) for n in pr.model.coordinate_names + pr.model.speed_names])
+        L = np.array([solution.interpolate(f"{c}.lambda", t) for c in e.constraint_names]).reshape(e.nc, -1)
+        W = np.array([solution.interpolate(n, t) for n in pr.model.inputs]).reshape(e.inputs.numel(), -1)
+        return self._from_maximal(X, L, W, solution.t_final)
+
+    def _from_maximal(self, X: np.ndarray, L: np.ndarray, W: np.ndarray, t_final: float) -> np.ndarray:
+        """Joint coordinates fitted to the bodies' coordinates point by point (Gauss-Newton from the
+        previous point, so angles stay on one branch), speeds ``u_r`` by least squares on ``u = J u_r``,
+        accelerations from the speeds, the remaining constraints' multipliers as they were."""
+        r, full = self.reduced, self.user_problem.eqs
+        P = X.shape[1]
+        pose = r.pose_functions
+        Q, U = np.zeros((r.nq, P)), np.zeros((r.nu, P))
+        p = r.reference_point()
+        for i in range(P):
+            for _ in range(30):
+                q, dq, _ = pose(p)
+                step = np.linalg.lstsq(np.asarray(dq), X[: full.nq, i] - np.asarray(q).ravel(), rcond=None)[0]
+                p = p + step
+                if np.linalg.norm(step) < 1e-13 * (1 + np.linalg.norm(p)):
+                    break
+            Q[:, i] = p
+            U[:, i] = np.linalg.lstsq(np.asarray(pose(p)[2]), X[full.nq :, i], rcond=None)[0]
+        t = self.fractions * t_final
+        A = np.gradient(U, t, axis=1) if P > 1 else np.zeros_like(U)
+        A = self.accelerations(np.vstack([Q, U]), A[:, : self.layout.n_acc], t_final)
+        return self._pack(np.vstack([Q, U]), L[r.rest], W, t_final, A=A)
+
+    # -- solving ---------------------------------------------------------------------------------
+    def solve(self, ipopt_options: dict, warm_start=None, progress: bool | None = None) -> OCPSolution:
+        """Solve the joint-coordinate NLP; the solution (or the last iterate of a failed solve) in
+        the bodies' coordinates, with every multiplier."""
+        try:
+            solution = super().solve(ipopt_options, warm_start, progress)
+        except OCPSolveError as err:
+            err.solution = self.maximal_solution(err.solution)
+            raise
+        return self.maximal_solution(solution)
+
+    def maximal_solution(self, sol: OCPSolution) -> OCPSolution:
+        """The bodies' coordinates, speeds, accelerations and every multiplier at each point."""
+        r, full = self.reduced, self.user_problem.eqs
+        P = len(sol.t)
+        q, u, udot, lam = (np.asarray(v).reshape(-1, P) for v in r.maximal_function.map(P)(
+            sol.X[: r.nq], sol.X[r.nq :], sol.D, sol.lam, sol.inputs, sol.t[None, :]))
+        traj = Trajectory(full, sol.success, sol.status)
+        for i in range(P):
+            traj.append(sol.t[i], q[:, i], u[:, i], udot[:, i], lam[:, i], sol.inputs[:, i], np.zeros(full.nc), 0.0, 0.0)
+        return OCPSolution(self, sol.decision_vector, sol.t, np.vstack([q, u]), udot, lam, sol.inputs, sol.t_final,
+                           sol.objective, sol.stats, sol.wall_time, traj)
+
