@@ -28,7 +28,7 @@ from .compiled import compiled, is_cached
 from ..output.signals import polling, raise_if_signalled, signal_mark, signal_since, watching_sigint
 from .preflight import check_initial_state, check_resources, input_function, state_vector
 from .trajectory import Trajectory
-from ..mechanics.state import project_state
+from ..mechanics.state import project_with_drift
 
 
 #: State size from which "auto" compiles the model functions. Measured (bench.peers.forward_duel, 10 s runs,
@@ -139,6 +139,16 @@ class _Integrators:
         return self._cache[n, step]
 
 
+def _integrators_for(eqs: SystemEquations, opts: SimulationOptions) -> _Integrators:
+    """The integrators of ``eqs`` for these settings, built once per model and settings: a batch of
+    runs of one model (a sweep, a multi-start's re-integrations) builds the DAE and loads its library once."""
+    key = (opts.rtol, opts.atol, opts.max_steps, opts.method, opts.compiled)
+    cache = eqs.__dict__.setdefault("_simulation_integrators", {})
+    if key not in cache:
+        cache[key] = _Integrators(eqs, opts)
+    return cache[key]
+
+
 def _use_compiled(opts: SimulationOptions, dae: ca.Function) -> bool:
     """``opts.compiled``: "always", "never", or "auto": the compiled library when the disk cache has
     it (a run with "always" made it), compiled here from ``COMPILE_ABOVE_NX`` states on."""
@@ -243,7 +253,7 @@ def simulate(
     # Samples every dt from t0, and t_final itself (never past it); counted before any is made.
     n_full = int(np.floor(span / opts.dt + 1e-9))
     short_last = span - n_full * opts.dt > 1e-9 * opts.dt
-    integrators = _Integrators(eqs, opts)
+    integrators = _integrators_for(eqs, opts)
     estimate = check_resources(eqs, n_full + 1 + short_last, span, opts.dt, opts.max_memory,
                                lambda: _seconds_per_sample(eqs, q0, u0, t0, n_full, inputs, opts))
     times = t0 + opts.dt * np.arange(n_full + 1)
@@ -264,8 +274,10 @@ def simulate(
     samples = integrators._samples
 
     def record(ks, Q, U, works, drift_q=0.0, drift_u=0.0) -> None:
-        """Samples ``ks`` (columns of ``Q``, ``U``, ``works``); the last gets the drifts."""
+        """Samples ``ks`` (columns of ``Q``, ``U``, ``works``), added as one block; the last gets the drifts."""
+        ks = list(ks)
         m = len(ks)
+        T = times[ks]
         W = np.column_stack([input_at(times[k]) for k in ks]) if n_in else np.zeros((0, m))
         R = np.zeros((n_in, m))
         for j, k in enumerate(ks if n_in else ()):
@@ -273,21 +285,26 @@ def simulate(
                 R[:, j] = (input_at(times[k + 1]) - W[:, j]) / (times[k + 1] - times[k])
             else:
                 R[:, j] = (W[:, j] - input_at(times[k - 1])) / (times[k] - times[k - 1])
-        udot, lam, margin = samples(Q, U, times[list(ks)], W, R)
-        flagged = (margin < samples.tolerances[:, None]).any(axis=0)
-        for j in range(m):
-            if flagged[j]:  # near a singularity: the bodies' own check decides and words the message
-                start = 0
-                try:
-                    for b in eqs.bodies:
-                        n = b.q.numel()
-                        b.check_singularity(Q[start : start + n, j], f"at t = {times[ks[j]]:.6g}")
-                        start += n
-                except SingularConfigurationError as exc:
-                    raise traj.stop_early(str(exc)) from exc
-            last = j == m - 1
-            traj.append(times[ks[j]], Q[:, j], U[:, j], udot[:, j], lam[:, j], W[:, j], works[:-1, j],
-                        drift_q if last else 0.0, drift_u if last else 0.0, applied_work=works[-1, j])
+        udot, lam, margin = samples(Q, U, T, W, R)
+        drifts = np.zeros((2, m))
+        drifts[:, -1] = drift_q, drift_u
+
+        def add(j: int) -> None:   # the first j samples
+            traj.extend(T[:j], Q[:, :j].T, U[:, :j].T, udot[:, :j].T, lam[:, :j].T, W[:, :j].T, works[:-1, :j].T,
+                        drifts[0, :j], drifts[1, :j], works[-1, :j])
+
+        for j in np.flatnonzero((margin < samples.tolerances[:, None]).any(axis=0)):
+            # near a singularity: the bodies' own check decides and words the message
+            start = 0
+            try:
+                for b in eqs.bodies:
+                    n = b.q.numel()
+                    b.check_singularity(Q[start : start + n, j], f"at t = {T[j]:.6g}")
+                    start += n
+            except SingularConfigurationError as exc:
+                add(j)
+                raise traj.stop_early(str(exc)) from exc
+        add(m)
 
     # Ctrl-C (and the CLI's SIGTERM) are recorded, not raised, while the loop runs, and raised between
     # segments: a KeyboardInterrupt inside a CasADi or NumPy call would come out as their own error.
@@ -326,14 +343,13 @@ def simulate(
             if not np.all(np.isfinite(X)):
                 raise traj.stop_early(f"state became non-finite between t = {times[k]:g} and {times[k + n]:g}")
             q_end, u_end = X[: eqs.nq, -1], X[eqs.nq :, -1]
-            _, _, phi, pi, _ = eqs.constraint_functions(q_end, u_end, times[k + n], input_at(times[k + n]))
-            drift_q, drift_u = float(np.abs(np.asarray(phi)).max(initial=0.0)), float(np.abs(np.asarray(pi)).max(initial=0.0))
+            q_new, u_new, drift_q, drift_u = project_with_drift(eqs, q_end, u_end, times[k + n], input_at(times[k + n]))
             if max(drift_q, drift_u) > opts.drift_limit and n > 1:
                 # Drifted too far (a fast rotation, a long segment): integrate it again in
                 # halves. Nothing of it has been recorded yet.
                 per_segment = n // 2
                 continue
-            q, u, _, _ = project_state(eqs, q_end, u_end, times[k + n], input_at(times[k + n]))
+            q, u = q_new, u_new
             X[: eqs.nq, -1], X[eqs.nq :, -1] = q, u   # the last sample is the projected state
             record(range(k + 1, k + n + 1), X[: eqs.nq], X[eqs.nq :], work[:, None] + W, drift_q, drift_u)
             work = work + W[:, -1]
