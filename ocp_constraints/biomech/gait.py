@@ -36,24 +36,20 @@ from __future__ import annotations
 import time
 from dataclasses import dataclass, field
 
-import casadi as ca
 import numpy as np
 
 from ..mechanics.equations import SystemEquations
-from ..errors import OcpConstraintsError
 from .gait_feet import Leg, assign_plates, find_legs
-from .gait_model import JointInfo, constraint_model
+from .gait_model import JointInfo
 from ..errors import GaitError
-from .casadi_numpy import evaluate
 from .gait_signals import check_cutoff, filter_coordinates, motion_units
-from ..dynamics.inverse import InverseDynamics
+from ..dynamics.inverse import evaluate
 from ..dynamics.result import MechanicalResult
-from ..mechanics.load_columns import load_columns
 from ..mechanics.model import Model
 from .opensim_files import Plate, Table, grf_plates, read_grf, read_motion
 from ..errors import DataFileError
 from .osim_model import OsimModel, load_osim
-from ..mechanics.rotations import quaternion_from_rotation
+from .gait_compiled import GaitFunctions, gait_functions, quaternions
 
 __all__ = ["GaitError", "GaitResult", "run_inverse_dynamics", "compare"]
 
@@ -94,12 +90,31 @@ class GaitResult(MechanicalResult):
     timings: dict[str, float]
     warnings: list[str]
     osim: OsimModel
-    model: Model
-    eqs: SystemEquations
+    functions: GaitFunctions = field(repr=False)
     states: dict[str, np.ndarray]
     status: str = "solved"
     success: bool = True
     settings: dict = field(default_factory=dict)   # filter, timing and unit decisions (summary.json)
+
+    @property
+    def constraint_names(self) -> list[str]:
+        return list(self.functions.meta["constraints"])
+
+    @property
+    def input_names(self) -> list[str]:
+        """The actuator inputs: one per free coordinate, named after it (N m or N)."""
+        return list(self.functions.meta["inputs"])
+
+    @property
+    def model(self) -> Model:
+        """Our constraint model of the OpenSim model (built on first use: 1-3 s; the run itself
+        evaluates the cached frame functions of :mod:`.gait_compiled` and needs no model)."""
+        return self.functions.model_and_equations(self.osim)[0]
+
+    @property
+    def eqs(self) -> SystemEquations:
+        """The model's :class:`SystemEquations` (built on first use, as :attr:`model`)."""
+        return self.functions.model_and_equations(self.osim)[1]
 
     def mechanical_samples(self):
         return self.eqs, self.t, self.states["q"], self.states["u"], self.lam, self.tau
@@ -205,7 +220,7 @@ def _window(motion: Table, grf: Table, start, end, times) -> tuple[np.ndarray, d
 
 
 def run_inverse_dynamics(model_path, motion_path, grf_path, start: float | None = None, end: float | None = None,
-                         cutoff: float | None = 6.0, times=None, select=None) -> GaitResult:
+                         cutoff: float | None = 6.0, times=None, select=None, compiled: str = "auto") -> GaitResult:
     """Inverse dynamics of a trial from files to joint loads (see the module docstring).
 
     Parameters
@@ -226,6 +241,9 @@ def run_inverse_dynamics(model_path, motion_path, grf_path, start: float | None 
         to the feet (``plates``: plate name -> ``"right"``/``"left"``; ``grf`` the force table):
         only the samples in ``t0 ... t1`` are then solved (the knee's gait cycle), so the
         inverse dynamics runs once, on those samples only.
+    compiled
+        ``"auto"`` (the model's compiled frame function when one is cached), ``"always"``
+        (compile it now if needed, once per model) or ``"never"``; see :mod:`.gait_compiled`.
     """
     clock = {"start": time.perf_counter()}
     osim = load_osim(model_path)
@@ -237,8 +255,9 @@ def run_inverse_dynamics(model_path, motion_path, grf_path, start: float | None 
     cutoff = check_cutoff(cutoff, motion)
     plates = grf_plates(grf)
     clock["read"] = time.perf_counter()
-    model, joints = constraint_model(osim)
-    eqs = SystemEquations(model)
+    fns = gait_functions(osim, compiled)
+    meta = fns.meta
+    bodies = meta["bodies"]
     legs = find_legs(osim)
     clock["model"] = time.perf_counter()
 
@@ -248,12 +267,11 @@ def run_inverse_dynamics(model_path, motion_path, grf_path, start: float | None 
     up = -np.asarray(osim.gravity) / np.linalg.norm(osim.gravity)
     in_window = (grf.time >= t.min() - 1e-9) & (grf.time <= t.max() + 1e-9)
     tg = grf.time[in_window]
-    pts = ca.SX.sym("p", len(names))
-    X = osim.poses({n: pts[i] for i, n in enumerate(names)})
-    foot_fn = ca.Function("feet", [pts], [ca.vertcat(*[X[legs[s].chain[c]][1] for s in legs for c in (-2, -1)])])
-    Pg = splines(tg)[0]
-    fp = np.asarray(foot_fn.map(len(tg))(Pg.T)).T
-    feet = {s: (fp[:, 6 * i:6 * i + 3], fp[:, 6 * i + 3:6 * i + 6]) for i, s in enumerate(legs)}
+    x_g = evaluate(fns.poses.map(len(tg)), splines(tg)[0].T)[1]          # body origins, 3 n_bodies x samples
+    feet = {}
+    for s_, leg in legs.items():
+        heel, toe = (bodies.index(leg.chain[c]) for c in (-2, -1))
+        feet[s_] = (x_g[3 * heel:3 * heel + 3].T, x_g[3 * toe:3 * toe + 3].T)
     window_plates = [Plate(p.name, p.force[in_window], p.point[in_window], p.torque[in_window], p.columns) for p in plates]
     assigned = assign_plates(window_plates, feet, up, str(grf.path))
     if select is not None:          # e.g. the knee's gait cycle, found from the plates of one foot
@@ -268,46 +286,37 @@ def run_inverse_dynamics(model_path, motion_path, grf_path, start: float | None 
         timing.update(selected_s=[float(lo), float(hi)], used_s=[float(t[0]), float(t[-1])], samples=int(len(t)))
 
     P, Pd, Pdd = splines(t)
-    bodies = list(model.bodies)
     N, nb = len(t), len(bodies)
-    R, xbar, vbar, w, abar, alpha, J = evaluate(osim.kinematics_function(bodies).map(N), P.T, Pd.T, Pdd.T)
-    q = np.zeros((N, 7 * nb))
-    u = np.zeros((N, 6 * nb))
-    ud = np.zeros((N, 6 * nb))
-    for k in range(nb):
-        q[:, 7 * k:7 * k + 3] = xbar[3 * k:3 * k + 3].T
-        for n in range(N):
-            q[n, 7 * k + 3:7 * k + 7] = quaternion_from_rotation(R[9 * k:9 * k + 9, n].reshape(3, 3, order="F"))
-        u[:, 6 * k:6 * k + 3], u[:, 6 * k + 3:6 * k + 6] = vbar[3 * k:3 * k + 3].T, w[3 * k:3 * k + 3].T
-        ud[:, 6 * k:6 * k + 3], ud[:, 6 * k + 3:6 * k + 6] = abar[3 * k:3 * k + 3].T, alpha[3 * k:3 * k + 3].T
+    R = evaluate(fns.poses.map(N), P.T)[0]                                 # 9 n_bodies x samples, column major
+    quat = quaternions(R.T.reshape(N, nb, 3, 3).transpose(0, 1, 3, 2))    # samples x bodies x 4
     clock["kinematics"] = time.perf_counter()
-    fext = np.zeros((N, 6 * nb))
+    F, M_O = np.zeros((N, nb, 3)), np.zeros((N, nb, 3))     # ground loads per body: force, moment about O
     for pl in plates:
         if pl.name not in assigned:
             continue
         k = bodies.index(legs[assigned[pl.name]].foot)
-        F = np.column_stack([np.interp(t, grf.time, pl.force[:, i]) for i in range(3)])
+        Fp = np.column_stack([np.interp(t, grf.time, pl.force[:, i]) for i in range(3)])
         cop = np.column_stack([np.interp(t, grf.time, pl.point[:, i]) for i in range(3)])
-        T = np.column_stack([np.interp(t, grf.time, pl.torque[:, i]) for i in range(3)])
-        fext[:, 6 * k:6 * k + 3] += F
-        fext[:, 6 * k + 3:6 * k + 6] += np.cross(cop - q[:, 7 * k:7 * k + 3], F) + T
+        Tp = np.column_stack([np.interp(t, grf.time, pl.torque[:, i]) for i in range(3)])
+        F[:, k] += Fp
+        M_O[:, k] += np.cross(cop, Fp) + Tp
     clock["grf"] = time.perf_counter()
 
-    try:
-        sol = InverseDynamics(eqs).solve(t, q, u, ud, external=fext)
-    except OcpConstraintsError as exc:
-        raise GaitError(f"{model_path}: {exc}") from exc
-    residual, lam, tau = sol.residual, sol.lam, sol.inputs
-    # generalized forces per OpenSim coordinate: inputs + Phi = lambda A, A = G dU/dpdot (eqs. 38-41)
-    lam_sym = ca.SX.sym("lam", eqs.nc)
-    GT_lam = evaluate(ca.Function("GT_lam", [eqs.q, lam_sym], [eqs.G.T @ lam_sym]).map(N), q.T, lam.T)[0]
-    Js = J.reshape(J.shape[0], N, len(names)).transpose(1, 0, 2)
-    gen = np.einsum("kn,nkc->nc", GT_lam, Js)
-    inputs = list(model.inputs)
-    for i, name in enumerate(inputs):
-        gen[:, names.index(name)] += tau[:, i]
+    # every frame at once: kinematics, balances (eq. 13), Phi = lambda A + tau (eqs. 38-41), joint loads
+    q, u, ud, fext, lam, tau, gen, residual, values = (a.T for a in evaluate(
+        fns.frame.map(N), P.T, Pd.T, Pdd.T, quat.reshape(N, 4 * nb).T, F.reshape(N, 3 * nb).T,
+        M_O.reshape(N, 3 * nb).T, t[None, :]))
+    residual = residual.ravel()
+    fns.check_determined(q[0], u[0], t[0], model_path)
+    worst = float(residual.max(initial=0.0))
+    # as InverseDynamics: exact when the residual is below EXACT times the balances' scale
+    exact = worst <= EXACT or worst <= EXACT * max(1.0, fns.balance_scale(q, u, ud, t, fext))
+    status = "solved" if exact else f"least squares: largest equation residual {worst:.3g} (N, N m)"
     clock["solve"] = time.perf_counter()
-    loads = LoadTable(load_columns(eqs, t, q, u, lam))
+    cols = meta["load_columns"]
+    nc = len(meta["constraints"])
+    loads = LoadTable({name: lam[:, k] for k, name in enumerate(cols[:nc])})
+    loads.update({name: values[:, k] for k, name in enumerate(cols[nc:])})
     clock["loads"] = time.perf_counter()
     steps = ["read", "model", "kinematics", "grf", "solve", "loads"]
     prev, timings = clock["start"], {}
@@ -315,11 +324,36 @@ def run_inverse_dynamics(model_path, motion_path, grf_path, start: float | None 
         timings[s_] = clock[s_] - prev
         prev = clock[s_]
     timings["total"] = clock["loads"] - clock["start"]
-    return GaitResult(t, names, gen, lam, tau, residual, loads, joints, legs, assigned, timings,
-                      list(getattr(model, "warnings", [])), osim, model, eqs,
-                      {"q": q, "u": u, "udot": ud, "p": P, "pdot": Pd, "pddot": Pdd, "J": Js, "fext": fext},
-                      status=sol.status, success=sol.success,
-                      settings={"filter": splines.settings, "timing": timing, "angles": motion_units(motion)})
+    joints = {n: JointInfo(n, j["parent"], j["child"], list(j["constraints"]), list(j["inputs"]))
+              for n, j in meta["joints"].items()}
+    states = _States(osim, bodies, {"q": q, "u": u, "udot": ud, "p": P, "pdot": Pd, "pddot": Pdd, "fext": fext})
+    warnings = [w.replace("{osim_path}", str(osim.path)) for w in meta["warnings"]]
+    model_info = {"functions": fns.source, "compiled": fns.compiled, "key": fns.key,
+                  "operations_per_frame": meta.get("instructions")}
+    return GaitResult(t, names, gen, lam, tau, residual, loads, joints, legs, assigned, timings, warnings, osim, fns,
+                      states, status=status, success=True,
+                      settings={"filter": splines.settings, "timing": timing, "angles": motion_units(motion),
+                                "model": model_info})
+
+
+EXACT = 1e-9       # relative residual below which the balances count as solved exactly (as InverseDynamics)
+
+
+class _States(dict):
+    """The states of a run; ``"J"`` (``d(vbar, omega)/d(pdot)`` per sample, eq. 39) is made on first use."""
+
+    def __init__(self, osim: OsimModel, bodies: list[str], states: dict):
+        super().__init__(states)
+        self._osim, self._bodies = osim, bodies
+
+    def __missing__(self, key):
+        if key != "J":
+            raise KeyError(key)
+        P, Pd, Pdd = self["p"], self["pdot"], self["pddot"]
+        N = len(P)
+        J = evaluate(self._osim.kinematics_function(self._bodies).map(N), P.T, Pd.T, Pdd.T)[6]
+        self["J"] = J.reshape(J.shape[0], N, P.shape[1]).transpose(1, 0, 2)
+        return self["J"]
 
 
 def compare(result: GaitResult, reference: Table, coordinates: list[str]) -> dict[str, dict[str, float]]:

@@ -31,11 +31,11 @@ def write_gait_results(result: GaitResult, out, side: str = "right", plots: bool
         "model": result.osim.path, "inputs": inputs or {},
         "side": side, "samples": len(result.t), "t_start": float(result.t[0]), "t_end": float(result.t[-1]),
         "filter": result.settings.get("filter"), "timing": result.settings.get("timing"),
-        "angles": result.settings.get("angles"),
+        "angles": result.settings.get("angles"), "model_functions": result.settings.get("model"),
         "plates": result.plates, "feet": {s: l.foot for s, l in result.legs.items()},
         "leg_joints": {j: {"constraints": result.joints[j].constraints, "inputs": result.joints[j].inputs,
                            "parent": result.joints[j].parent, "child": result.joints[j].child} for j in leg},
-        "n_constraints": len(result.eqs.constraint_names), "n_inputs": len(result.model.inputs),
+        "n_constraints": len(result.constraint_names), "n_inputs": len(result.input_names),
         "max_equation_residual": float(result.residual.max()),
         "peak_generalized_forces": {c: float(np.max(np.abs(result.generalized_force(c))))
                                     for j in leg for c in result.osim.joints[j].coordinates},

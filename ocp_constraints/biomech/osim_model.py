@@ -181,6 +181,34 @@ class OsimModel:
         X.pop("ground")
         return X
 
+    def kinematic_expressions(self, p, pd, pdd, bodies: list[str]) -> dict[str, list]:
+        """Per body of ``bodies`` (SX, ground frame): ``R`` (3x3), origin ``x``, ``xbar``, ``vbar``,
+        ``omega``, ``abar``, ``alpha`` for coordinates ``p`` and their rates ``pd``, ``pdd``.
+
+        Derivatives by CasADi AD (``omega = vee(R' R^T)``, rates by ``jtimes`` over ``(p, pd)``).
+        """
+        names = self.coordinate_names
+        X = self.poses({n: p[i] for i, n in enumerate(names)})
+        nb = len(bodies)
+        R = [X[b][0] for b in bodies]
+        x = [X[b][1] for b in bodies]
+        xbar = [x[k] + R[k] @ ca.DM(self.bodies[b].com) for k, b in enumerate(bodies)]
+        # one forward sweep for all bodies (a sweep per body would differentiate the shared
+        # inboard chain once per body: 81,000 instead of 21,000 operations for the JW model)
+        S = ca.vertcat(*[ca.vertcat(ca.vec(R[k]), xbar[k]) for k in range(nb)])
+        Sd = ca.jtimes(S, p, pd)
+        Sdd = ca.jtimes(Sd, ca.vertcat(p, pd), ca.vertcat(pd, pdd))
+        out = {"R": R, "x": x, "xbar": xbar, "vbar": [], "omega": [], "abar": [], "alpha": []}
+        for k in range(nb):
+            Rd, Rdd = ca.reshape(Sd[12 * k:12 * k + 9], 3, 3), ca.reshape(Sdd[12 * k:12 * k + 9], 3, 3)
+            W = Rd @ R[k].T                     # omega^ = R' R^T
+            Wd = Rdd @ R[k].T                   # (omega')^ = skew part of R'' R^T (R' R'^T is symmetric)
+            out["omega"].append(ca.vertcat(W[2, 1], W[0, 2], W[1, 0]))
+            out["alpha"].append(0.5 * ca.vertcat(Wd[2, 1] - Wd[1, 2], Wd[0, 2] - Wd[2, 0], Wd[1, 0] - Wd[0, 1]))
+            out["vbar"].append(Sd[12 * k + 9:12 * k + 12])
+            out["abar"].append(Sdd[12 * k + 9:12 * k + 12])
+        return out
+
     def kinematics_function(self, bodies: list[str] | None = None) -> ca.Function:
         """``(p, pdot, pddot) -> (R, xbar, vbar, omega, abar, alpha, J)`` for ``bodies``.
 
@@ -193,24 +221,12 @@ class OsimModel:
         names = self.coordinate_names
         bodies = bodies or list(self.bodies)
         p, pd, pdd = (ca.SX.sym(s, len(names)) for s in ("p", "pd", "pdd"))
-        X = self.poses({n: p[i] for i, n in enumerate(names)})
-        Rs, xs, vs, ws = [], [], [], []
-        for b in bodies:
-            R, x = X[b]
-            xbar = x + R @ ca.DM(self.bodies[b].com)
-            Rdot = ca.jtimes(ca.vec(R), p, pd)
-            W = ca.reshape(Rdot, 3, 3) @ R.T
-            Rs.append(ca.vec(R))
-            xs.append(xbar)
-            vs.append(ca.jtimes(xbar, p, pd))
-            ws.append(ca.vertcat(W[2, 1], W[0, 2], W[1, 0]))
-        x_all, v_all, w_all = ca.vertcat(*xs), ca.vertcat(*vs), ca.vertcat(*ws)
-        z, zd = ca.vertcat(p, pd), ca.vertcat(pd, pdd)
-        a_all, al_all = ca.jtimes(v_all, z, zd), ca.jtimes(w_all, z, zd)
-        u = ca.vertcat(*[ca.vertcat(vs[i], ws[i]) for i in range(len(bodies))])
+        K = self.kinematic_expressions(p, pd, pdd, bodies)
+        u = ca.vertcat(*[ca.vertcat(K["vbar"][i], K["omega"][i]) for i in range(len(bodies))])
         J = ca.jacobian(u, pd)
         return ca.Function("osim_kinematics", [p, pd, pdd],
-                           [ca.vertcat(*Rs), x_all, v_all, w_all, a_all, al_all, J],
+                           [ca.vertcat(*[ca.vec(R) for R in K["R"]])] + [ca.vertcat(*K[k]) for k in
+                                                                         ("xbar", "vbar", "omega", "abar", "alpha")] + [J],
                            ["p", "pdot", "pddot"], ["R", "xbar", "vbar", "omega", "abar", "alpha", "J"])
 
 
