@@ -31,3 +31,4 @@ def test_sparse_block_diagonal_equals_the_dense_matrix():
     B = _block_diagonal(blocks)
     assert B.nnz() == np.count_nonzero(dense)
     np.testing.assert_array_equal(np.asarray(ca.DM(B).full()), dense)
+

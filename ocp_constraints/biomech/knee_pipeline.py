@@ -225,7 +225,10 @@ def run_knee(model, motion, grf, measured=None, muscles_on: bool = True, muscle_
     return out
 
 
-def write_knee_results(run: dict, out, plots: bool = True, inputs: dict | None = None) -> dict:
+def write_knee_results(run: dict, out, plots: bool = True, inputs: dict | None = None, figure_process=None) -> dict:
+    """Write the run folder ``out`` (loads.csv/.sto, muscle_forces.sto, trajectory.sto, summary.json and,
+    with ``plots``, knee_contact.png and report.html); returns the summary. ``figure_process``: a
+    :class:`~.knee_figure_process.FigureProcess` that draws the figure with matplotlib already loaded."""
     from ..output.files import software_versions, write_csv, write_json
     from ..output.report import write_report
     from ..output.run_folder import RunFolder
@@ -278,7 +281,7 @@ def write_knee_results(run: dict, out, plots: bool = True, inputs: dict | None =
             "objective": "int sum (e^2 + a^2)/2 + reserve_weight sum rho^2 dt (trapezoidal weights)"}
         summary["solve_time_s"] = r.timings["build"] + r.timings["solve"]
     if plots:
-        summary["plots"] = [_plot(run, folder)]
+        summary["plots"] = [_plot(run, folder, figure_process)]
         summary["report"] = "report.html"
     write_json(folder / "summary.json", summary)
     if plots:
@@ -316,20 +319,25 @@ def _muscle_model_text(run) -> dict:
     return out
 
 
-def _plot(run, folder) -> str:
-    """``knee_contact.png``: predicted and measured contact forces (BW), the gait phases shaded."""
-    from ..output.joint_plots import knee_figure
-    from ..output.plots import save
-
+def _plot(run, folder, figure_process=None) -> str:
+    """``knee_contact.png``: predicted and measured contact forces (BW), the gait phases shaded; drawn by
+    ``figure_process`` if it can, else here."""
     r, bw = run["result"], run["bw"]
     meas = run.get("measured")
     measured = None if meas is None else (meas[0], {"medial": meas[1] / bw, "lateral": meas[2] / bw,
                                                     "total": (meas[1] + meas[2]) / bw})
     label = f"{METHOD_TEXT[run.get('method', 'static')]}, {run.get('muscle_model', 'ideal')} muscles"
-    fig = knee_figure(r.t, {"medial": r.medial / bw, "lateral": r.lateral / bw, "total": r.total / bw}, label,
-                      measured, run.get("phases", ()))
+    args = (r.t, {"medial": r.medial / bw, "lateral": r.lateral / bw, "total": r.total / bw}, label,
+            measured, list(run.get("phases", ())))
+    if figure_process is not None:
+        name = figure_process.draw(folder, args)
+        if name is not None:
+            return name
+    from ..output.joint_plots import knee_figure
+    from ..output.plots import save
+
     written: list[str] = []
-    save(fig, folder, "knee_contact.png", written, dpi=100)
+    save(knee_figure(*args), folder, "knee_contact.png", written, dpi=100)
     return written[0]
 
 

@@ -61,13 +61,18 @@ def cli_knee(args) -> int:
     from ..output.signals import signal_mark
 
     mark = signal_mark()
+    figures = None
+    if not args.no_plots:       # matplotlib loads in a second process while this one computes
+        from ..biomech.knee_figure_process import FigureProcess
+
+        figures = FigureProcess()
     try:
         cutoff = None if getattr(args, "no_filter", False) else getattr(args, "cutoff", 6.0)
         run = run_knee(args.model, args.motion, args.grf, args.measured, muscle_model=args.muscle_model,
                        method=args.method, cutoff=cutoff, implant_meshes=getattr(args, "implant_meshes", None),
                        passive_hip=getattr(args, "passive_hip", "riener-edrich-1999"),
                        parameters=_params(getattr(args, "param", [])))
-        summary = write_knee_results(run, args.out, plots=not args.no_plots,
+        summary = write_knee_results(run, args.out, plots=not args.no_plots, figure_process=figures,
                                      inputs={"model": str(args.model), "motion": str(args.motion), "grf": str(args.grf),
                                              "measured": None if args.measured is None else str(args.measured),
                                              "method": args.method, "muscle_model": args.muscle_model,
@@ -83,6 +88,9 @@ def cli_knee(args) -> int:
         if stop is None:
             raise
         raise stop from None
+    finally:
+        if figures is not None:
+            figures.close()
     for note in (summary.get("timing") or {}).get("notes", []):
         print(f"note: {note}", file=sys.stderr)
     w = summary["wall_time_s"]
