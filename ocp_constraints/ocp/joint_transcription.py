@@ -18,6 +18,7 @@ constraint. The solution is handed back in the bodies' coordinates with every mu
 from __future__ import annotations
 
 from dataclasses import replace
+from functools import cached_property
 from types import SimpleNamespace
 
 import casadi as ca
@@ -25,7 +26,7 @@ import numpy as np
 
 from ..errors import ModelError, OCPSolveError
 from ..mechanics.generalized import JointCoordinates
-from .guess import consistent_guess
+from .joint_guess import JointGuess
 from .solution import OCPSolution
 from .transcription import Transcription
 from ..dynamics.trajectory import Trajectory
@@ -91,8 +92,7 @@ class JointTranscription(Transcription):
 
     # -- guesses ---------------------------------------------------------------------------------
     def initial_guess(self) -> np.ndarray:
-        """The maximal form's consistent start (:func:`.guess.consistent_guess` on the bodies'
-        coordinates), carried to joint coordinates (:meth:`_from_maximal`)."""
+        """A consistent start from the user's guesses on the bodies' names (:mod:`.joint_guess`)."""
         pr, e = self.user_problem, self.user_problem.eqs
         t = self.fractions * pr.t_final
         P = len(t)
@@ -100,17 +100,27 @@ class JointTranscription(Transcription):
         for r, n in enumerate(pr.model.coordinate_names + pr.model.speed_names):
             if n in pr.guess:
                 X[r] = np.broadcast_to(pr.guess[n](t), t.shape)
-            elif r < e.nq:
+            elif n in pr.initial_values or n in pr.final_values or r >= e.nq:
                 a = pr.initial_values.get(n, pr.final_values.get(n, 0.0))
                 X[r] = a + (pr.final_values.get(n, a) - a) * self.fractions
         W = np.full((e.inputs.numel(), P), np.nan)
         for r, n in enumerate(pr.model.inputs):
             if n in pr.guess:
                 W[r] = np.broadcast_to(pr.guess[n](t), t.shape)
-        maximal = SimpleNamespace(eqs=e, problem=pr, fractions=self.fractions, layout=SimpleNamespace(n_acc=P),
-                                  accelerations=lambda X, A, t_final: A)
-        X, _, L, W = consistent_guess(maximal, X, W, pr.t_final)
-        return self._from_maximal(X, L, W, pr.t_final)
+        start = self._start
+        p = start.coordinates(X[: e.nq], t)
+        U = start.speeds(p, X[e.nq :], t, np.nan_to_num(W))
+        A = np.gradient(U, t, axis=1) if P > 1 else np.zeros_like(U)
+        A = self.accelerations(np.vstack([p, U]), A[:, : self.layout.n_acc], pr.t_final)
+        L, W = start.loads(p, U, A, t, W)
+        for r, name in enumerate(pr.model.inputs):
+            lo, hi = pr.bounds.get(name, (-np.inf, np.inf))
+            W[r] = np.clip(W[r], lo, hi)
+        return self._pack(np.vstack([p, U]), L, W, pr.t_final, A=A)
+
+    @cached_property
+    def _start(self) -> JointGuess:
+        return JointGuess(self.reduced)
 
     def guess_from(self, solution: OCPSolution) -> np.ndarray:
         """A start from a solution of this problem (maximal or joint coordinates, any mesh or scheme)."""
@@ -131,27 +141,19 @@ class JointTranscription(Transcription):
         return self._from_maximal(X, L, W, solution.t_final)
 
     def _from_maximal(self, X: np.ndarray, L: np.ndarray, W: np.ndarray, t_final: float) -> np.ndarray:
-        """Joint coordinates fitted to the bodies' coordinates point by point (Gauss-Newton from the
-        previous point, so angles stay on one branch), speeds ``u_r`` by least squares on ``u = J u_r``,
-        accelerations from the speeds, the remaining constraints' multipliers as they were."""
+        """Joint coordinates fitted to the bodies' coordinates at every point (Gauss-Newton on all
+        points at once, from the joint coordinates' zero: the Euler angles are unwrapped about their
+        linearization there, see :mod:`~ocp_constraints.mechanics.generalized`), speeds ``u_r`` by least
+        squares on ``u = J u_r``, accelerations from the speeds, the remaining constraints'
+        multipliers as they were."""
         r, full = self.reduced, self.user_problem.eqs
-        P = X.shape[1]
-        pose = r.pose_functions
-        Q, U = np.zeros((r.nq, P)), np.zeros((r.nu, P))
-        p = r.reference_point()
-        for i in range(P):
-            for _ in range(30):
-                q, dq, _ = pose(p)
-                step = np.linalg.lstsq(np.asarray(dq), X[: full.nq, i] - np.asarray(q).ravel(), rcond=None)[0]
-                p = p + step
-                if np.linalg.norm(step) < 1e-13 * (1 + np.linalg.norm(p)):
-                    break
-            Q[:, i] = p
-            U[:, i] = np.linalg.lstsq(np.asarray(pose(p)[2]), X[full.nq :, i], rcond=None)[0]
         t = self.fractions * t_final
-        A = np.gradient(U, t, axis=1) if P > 1 else np.zeros_like(U)
-        A = self.accelerations(np.vstack([Q, U]), A[:, : self.layout.n_acc], t_final)
-        return self._pack(np.vstack([Q, U]), L[r.rest], W, t_final, A=A)
+        p = self._start.coordinates(X[: full.nq], t)
+        Jm = np.asarray(r.pose_functions.map(len(t))(p)[2]).reshape(full.nu, len(t), r.nu).transpose(1, 0, 2)
+        U = (np.linalg.pinv(Jm) @ X[full.nq :].T[:, :, None])[:, :, 0].T
+        A = np.gradient(U, t, axis=1) if len(t) > 1 else np.zeros_like(U)
+        A = self.accelerations(np.vstack([p, U]), A[:, : self.layout.n_acc], t_final)
+        return self._pack(np.vstack([p, U]), L[r.rest], W, t_final, A=A)
 
     # -- solving ---------------------------------------------------------------------------------
     def solve(self, ipopt_options: dict, warm_start=None, progress: bool | None = None) -> OCPSolution:
