@@ -22,10 +22,12 @@ Route (issue 6):
    solved at every sample; joint loads follow from Lagrange's prescription (eq. 26) and
    the generalized force of every OpenSim coordinate from ``Phi = lambda A`` with
    ``A = G dU/dpdot`` (eqs. 38-41) plus the inputs: for a locked coordinate
-   ``Phi = lambda`` exactly (eq. 44).
+   ``Phi = lambda`` exactly (eq. 44). Steps 2's kinematics and 4 are one CasADi function
+   of the frame, mapped over all frames in one evaluation, built once per model and kept
+   on disk (:mod:`.gait_compiled`).
 
 Modules: :mod:`.gait_model` (step 1), :mod:`.gait_signals` (2), :mod:`.gait_feet` (3),
-this one (4: the trial, :func:`run_inverse_dynamics`, :func:`compare`) and
+:mod:`.gait_compiled` (the frame function and its cache), this one (4: the trial, :func:`run_inverse_dynamics`, :func:`compare`) and
 :mod:`.gait_report` (results files; the ``gait`` command is :mod:`ocp_constraints.cli.gait`).
 
 Checked against OpenSim 4.6's InverseDynamicsTool on gait2354 subject01: every one of
