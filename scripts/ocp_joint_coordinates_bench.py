@@ -1,0 +1,114 @@
+"""Pendulum swing-up, Radau 3: ours in maximal coordinates, ours in joint coordinates, rockit.
+
+    python scripts/ocp_joint_coordinates_bench.py [--N 25 50 100 200 400] [--runs 3] [--degree 3]
+
+One interleaved run: for each repetition, each N, each solver in turn (so a noisy neighbour
+hits all three alike). Per solver and N, the medians over the runs of:
+- ``solve``: IPOPT's own time from CasADi's solver stats (``t_wall_total``, ``t_proc_total``):
+  the NLP solve with every function evaluation and factorization, the same measure for all three;
+- ``build``: everything from the problem to the solution but IPOPT (ours: task, transcription,
+  ``nlpsol``, start, solution in the bodies' coordinates; rockit: its ``Ocp``, ``DirectCollocation``
+  and the transcription and set-up it does in ``solve()``), wall time; and problem to solution
+  in all, wall and CPU (``time.process_time``);
+- iterations, ms per iteration (IPOPT wall / iterations), the objective and its error against the
+  Pontryagin extremal (bench/references.py, shooting on the 1-DOF equation: an independent value);
+- NLP size (variables, constraints).
+rockit's swing-up is bench/peers.py's ``rockit_swing_up`` (minimal coordinates psi, psi', one
+piecewise-constant control per interval), here with the solver stats read out.
+"""
+from __future__ import annotations
+
+import argparse
+import math
+import time
+
+import numpy as np
+
+import ocp_constraints as oc
+from ocp_constraints.bench.peers import IPOPT_TOL, _pendulum_constants
+from ocp_constraints.bench.references import swing_up_reference
+
+
+def ours(N: int, degree: int, coordinates: str) -> dict:
+    started, cpu = time.perf_counter(), time.process_time()
+    _, ocp = oc.build_task("pendulum", "swing_up")
+    ocp.coordinates = coordinates
+    tr = ocp.transcription(oc.Radau(N, degree=degree))
+    sol = tr.solve({"record_time": True})
+    total, total_cpu = time.perf_counter() - started, time.process_time() - cpu
+    st = sol.stats
+    return {"objective": sol.objective, "iterations": sol.iterations, "solve_wall": st["t_wall_total"],
+            "solve_cpu": st["t_proc_total"], "build": total - st["t_wall_total"], "total": total, "total_cpu": total_cpu,
+            "size": (tr.nlp["x"].numel(), tr.nlp["g"].numel())}
+
+
+def rockit(N: int, degree: int) -> dict:
+    import casadi as ca
+    import rockit as rk
+
+    J, c, tmax = _pendulum_constants()
+    started, cpu = time.perf_counter(), time.process_time()
+    ocp = rk.Ocp(T=2.0)
+    psi, w = ocp.state(), ocp.state()
+    u = ocp.control()
+    ocp.set_der(psi, w)
+    ocp.set_der(w, (u - c * ca.sin(psi)) / J)
+    ocp.add_objective(ocp.integral(u**2))
+    ocp.subject_to(-tmax <= (u <= tmax))
+    ocp.subject_to(ocp.at_t0(psi) == 0)
+    ocp.subject_to(ocp.at_t0(w) == 0)
+    ocp.subject_to(ocp.at_tf(psi) == math.pi)
+    ocp.subject_to(ocp.at_tf(w) == 0)
+    ocp.set_initial(psi, math.pi * ocp.t / 2 - ca.sin(math.pi * ocp.t / 2))
+    ocp.solver("ipopt", {"ipopt.tol": IPOPT_TOL, "ipopt.constr_viol_tol": IPOPT_TOL, "ipopt.print_level": 0,
+                         "print_time": False, "record_time": True, "ipopt.sb": "yes"})
+    ocp.method(rk.DirectCollocation(N=N, degree=degree, scheme="radau"))
+    sol = ocp.solve()
+    total, total_cpu = time.perf_counter() - started, time.process_time() - cpu
+    st = sol.stats
+    opti = ocp._method.opti
+    return {"objective": float(sol.value(ocp.objective)), "iterations": int(st["iter_count"]),
+            "solve_wall": st["t_wall_total"], "solve_cpu": st["t_proc_total"], "build": total - st["t_wall_total"],
+            "total": total, "total_cpu": total_cpu,
+            "size": (opti.nx, opti.ng)}
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--N", type=int, nargs="+", default=[25, 50, 100, 200, 400])
+    ap.add_argument("--runs", type=int, default=3)
+    ap.add_argument("--degree", type=int, default=3)
+    args = ap.parse_args()
+    ref = swing_up_reference().objective
+    solvers = {"maximal": lambda N: ours(N, args.degree, "maximal"), "joint": lambda N: ours(N, args.degree, "joint"),
+               "rockit": lambda N: rockit(N, args.degree)}
+    for name, f in solvers.items():       # warm-up: imports, CasADi's first JIT-free set-up
+        f(args.N[0])
+    rows: dict = {}
+    cpu0 = time.process_time()
+    for _ in range(args.runs):
+        for N in args.N:
+            for name, f in solvers.items():
+                rows.setdefault((name, N), []).append(f(N))
+    print(f"Pendulum swing-up, Radau {args.degree}, medians of {args.runs} interleaved runs "
+          f"(Pontryagin objective {ref:.9f}); bench CPU {time.process_time() - cpu0:.1f} s")
+    print("| N | solver | NLP vars x cons | iterations | IPOPT wall (s) | IPOPT CPU (s) | ms/iteration | build wall (s) "
+          "| problem to solution wall / CPU (s) | objective | objective error | IPOPT wall / rockit's | IPOPT CPU / rockit's "
+          "| problem to solution CPU / rockit's |")
+    print("|---|---|---|---|---|---|---|---|---|---|---|---|---|---|")
+    for N in args.N:
+        rock = {k: np.median([r[k] for r in rows[("rockit", N)]]) for k in ("solve_wall", "solve_cpu", "total_cpu")}
+        for name in solvers:
+            rs = rows[(name, N)]
+            med = {k: float(np.median([r[k] for r in rs])) for k in ("iterations", "solve_wall", "solve_cpu", "build",
+                                                                      "total", "total_cpu", "objective")}
+            nx, ng = rs[0]["size"]
+            print(f"| {N} | {name} | {nx} x {ng} | {med['iterations']:.0f} | {med['solve_wall']:.4f} | "
+                  f"{med['solve_cpu']:.4f} | {1e3 * med['solve_wall'] / max(med['iterations'], 1):.2f} | "
+                  f"{med['build']:.3f} | {med['total']:.3f} / {med['total_cpu']:.3f} | {med['objective']:.9f} | "
+                  f"{abs(med['objective'] - ref):.1e} | {med['solve_wall'] / rock['solve_wall']:.2f} | "
+                  f"{med['solve_cpu'] / rock['solve_cpu']:.2f} | {med['total_cpu'] / rock['total_cpu']:.2f} |")
+
+
+if __name__ == "__main__":
+    main()
