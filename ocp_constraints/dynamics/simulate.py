@@ -21,6 +21,7 @@ import casadi as ca
 import numpy as np
 
 from ..mechanics.equations import SystemEquations
+from ..mechanics.fast_eval import Buffered
 from ..errors import ModelError, SimulationError
 from ..mechanics.rotations import UnitQuaternion
 from ..errors import RunInterrupted, SingularConfigurationError, interruption_reason
@@ -121,13 +122,14 @@ class _Integrators:
         self._cache: dict[tuple[int, float], ca.Function] = {}
         self._samples = _SampleFunctions(eqs, self.compile)
 
-    def __call__(self, n: int, step: float | None = None) -> ca.Function:
-        """``n`` samples ``step`` apart (default ``dt``; the last step of a run may be shorter)."""
+    def __call__(self, n: int, step: float | None = None) -> Buffered:
+        """``n`` samples ``step`` apart (default ``dt``; the last step of a run may be shorter); called
+        through CasADi's function buffer (:mod:`~ocp_constraints.mechanics.fast_eval`)."""
         o = self.opts
         step = o.dt if step is None else step
         if (n, step) not in self._cache:
             grid = [step * (k + 1) for k in range(n)]
-            self._cache[n, step] = ca.integrator(
+            self._cache[n, step] = Buffered(ca.integrator(
                 f"forward_{n}", "cvodes", self.dae_function, 0.0, grid,
                 {"abstol": o.atol, "reltol": o.rtol, "max_num_steps": o.max_steps,
                  # CVODES gives up once its step falls below 1e-13 of the segment (it only
@@ -135,7 +137,7 @@ class _Integrators:
                  # this floor it spends max_steps steps of t + h == t (~1 min) before failing.
                  "min_step_size": 1e-13 * grid[-1],
                  "linear_multistep_method": o.method},
-            )
+            ))
         return self._cache[n, step]
 
 
@@ -179,14 +181,14 @@ class _SampleFunctions:
         udot, lam = eqs.forward_dynamics(*args)
         f = ca.Function("sample_values", args, [udot, lam, margin(args[0])])
         self.function = compiled(f) if compile else f
-        self._maps: dict[int, ca.Function] = {}
+        self._maps: dict[int, Buffered] = {}
 
     def __call__(self, Q, U, T, W, R) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         m = Q.shape[1]
         if m not in self._maps:
-            self._maps[m] = self.function.map(m) if m > 1 else self.function
+            self._maps[m] = Buffered(self.function.map(m) if m > 1 else self.function)
         out = self._maps[m](Q, U, T.reshape(1, m), W, R)
-        return tuple(np.asarray(o).reshape(-1, m) for o in out)
+        return tuple(o.reshape(-1, m, order="F") if o.ndim == 1 else o for o in out)
 
 
 def _failure_message(eqs: SystemEquations, q: np.ndarray, t0: float, t1: float, exc: Exception) -> str:
@@ -326,7 +328,7 @@ def simulate(
                     step = last_step
             w = np.concatenate([input_at(times[k]), input_at(times[k + n])])
             try:
-                res = integrators(n, step)(x0=np.concatenate([q, u]), p=np.concatenate([[times[k], step], w]))
+                res = integrators(n, step).named(x0=np.concatenate([q, u]), p=np.concatenate([[times[k], step], w]))
             except RuntimeError as exc:
                 if signal_since(mark) is not None:   # not a failure: the run was interrupted
                     raise RunInterrupted(signal_since(mark)) from None

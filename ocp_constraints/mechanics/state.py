@@ -10,6 +10,7 @@ from __future__ import annotations
 import numpy as np
 
 from .equations import SystemEquations
+from .fast_eval import Buffered
 from ..errors import InconsistentStateError, ModelError
 from .rotations import UnitQuaternion
 from .validate import check_constraint_values, input_values
@@ -123,9 +124,9 @@ def _projection_parts(eqs: SystemEquations):
     if "_projection_parts" not in cache:
         import casadi as ca
 
-        cache["_projection_parts"] = ca.Function(
+        cache["_projection_parts"] = Buffered(ca.Function(
             "projection_parts", [eqs.q, eqs.u, eqs.t, eqs.inputs],
-            [eqs.phi, ca.jacobian(eqs.phi, eqs.q), eqs.G, eqs.G @ eqs.u + eqs.e, eqs.mass_matrix])
+            [eqs.phi, ca.jacobian(eqs.phi, eqs.q), eqs.G, eqs.G @ eqs.u + eqs.e, eqs.mass_matrix]))
     return cache["_projection_parts"]
 
 
@@ -145,8 +146,8 @@ def _project(eqs: SystemEquations, q: np.ndarray, u: np.ndarray | None, t: float
     parts = _projection_parts(eqs)
 
     def evaluate(qv):
-        phi, J, G, pi, M = (np.asarray(x, dtype=float) for x in parts(qv, u_in, t, w))
-        return phi.ravel(), J.reshape(-1, eqs.nq), G.reshape(-1, eqs.nu), pi.ravel(), M
+        phi, J, G, pi, M = parts(qv, u_in, t, w)
+        return phi, J.reshape(-1, eqs.nq), G.reshape(-1, eqs.nu), pi, M
 
     def residual(qv, phi, J):
         rows, res = [J], [phi]
