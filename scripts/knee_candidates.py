@@ -33,7 +33,7 @@ sys.path.insert(0, str(ROOT))
 from ocp_constraints.biomech.gait import run_inverse_dynamics  # noqa: E402
 from ocp_constraints.biomech.knee_model import contact_matrix_function  # noqa: E402
 from ocp_constraints.biomech.knee_muscles import PRIMARY, SECONDARY, MusclePaths, muscle_parameters  # noqa: E402
-from ocp_constraints.biomech.knee_passive import passive_hip_moment  # noqa: E402
+from ocp_constraints.biomech.knee_passive import HIP_KNEE_ANKLE, passive_generalized_forces, passive_hip_moment  # noqa: E402,E501
 from ocp_constraints.biomech.knee_pipeline import gait_cycle, read_measured  # noqa: E402
 from ocp_constraints.biomech.knee_static import RESERVED, frame_data  # noqa: E402
 
@@ -64,8 +64,8 @@ json.dump(out.tolist(), open(sys.argv[3], "w"))
 '''
 
 
-def solve(Qc, R, A, F0, power=2, reserve_weights=None, contact_weight=0.0, scale=1000.0):
-    """Static optimisation over all frames: min sum a^power + sum w rho^2 (+ c (N_m + N_l)^2, N in BW)."""
+def solve(Qc, R, A, F0, power=2, reserve_weights=None, contact_weight=0.0, scale=1000.0, activation_weights=None):
+    """Static optimisation over all frames: min sum v a^power + sum w rho^2 (+ c (N_m + N_l)^2, N in BW)."""
     N, nr, nm = R.shape
     nres, nx = len(RESERVED), nm + 5 + len(RESERVED)
     w = np.ones(nres) if reserve_weights is None else np.asarray(reserve_weights, float)
@@ -77,7 +77,8 @@ def solve(Qc, R, A, F0, power=2, reserve_weights=None, contact_weight=0.0, scale
     B = sp.csc_matrix((Bn[n, i, j] / scale, (n * nr + i, n * nx + j)), shape=(N * nr, N * nx))
     B = ca.DM(ca.Sparsity(B.shape[0], B.shape[1], B.indptr.tolist(), B.indices.tolist()), B.data)
     x = ca.SX.sym("x", nx)
-    f = (ca.sumsqr(x[:nm]) if power == 2 else ca.sum1(x[:nm] ** power)) + ca.sum1(ca.DM(w) * x[nm + 5:] ** 2)
+    v = ca.DM(np.ones(nm) if activation_weights is None else np.asarray(activation_weights, float))
+    f = ca.sum1(v * x[:nm] ** power) + ca.sum1(ca.DM(w) * x[nm + 5:] ** 2)
     f += contact_weight * ((x[nm] + x[nm + 1]) * scale / BW) ** 2
     X = ca.MX.sym("X", nx * N)
     S = ca.nlpsol("s", "ipopt", {"x": X, "f": ca.sum2(ca.Function("f", [x], [f]).map(N)(ca.reshape(X, nx, N))),
@@ -144,6 +145,12 @@ def main(out_dir: Path):
     Mp = passive_hip_moment(P[:, names.index("hip_flexion")], P[:, names.index("knee_flexion")])
     Qp = Qc.copy()
     Qp[:, ROWS.index("hip_flexion")] -= Mp
+    Q7 = Qc.copy()                      # C7: the paper's hip, knee and ankle passive moments together
+    for c, m in passive_generalized_forces(HIP_KNEE_ANKLE, names, P).items():
+        Q7[:, ROWS.index(c)] -= m
+    params = muscle_parameters(MODEL, mus)
+    volume = np.array([params[m].max_isometric_force * params[m].optimal_fiber_length for m in mus])
+    volume /= volume.mean()             # C9: V_m ~ F0 l_opt (Happee & van der Helm 1995), mean weight 1
     cheap_hip = np.ones(len(RESERVED))
     cheap_hip[:3] = 1e-3
     rows = [("C0", "baseline: ideal muscles, sum a^2, reserves 1 N m^-2, no passive hip moment", {}),
@@ -152,7 +159,10 @@ def main(out_dir: Path):
              {"contact_weight": 0.1}),
             ("C2b", "objective + contact-load term 1 (N_total/BW)^2", {"contact_weight": 1.0}),
             ("C4", "diagnostic, not a model: hip reserves 1000x cheaper", {"reserve_weights": cheap_hip}),
-            ("C5", "passive hip flexion moment, Riener & Edrich 1999 (adopted)", {"Q": Qp})]
+            ("C5", "passive hip flexion moment, Riener & Edrich 1999 (adopted)", {"Q": Qp}),
+            ("C7", "passive hip, knee and ankle moments, Riener & Edrich 1999 (preregistered)", {"Q": Q7}),
+            ("C9", "C7 with volume-weighted effort sum V a^2, Happee & van der Helm 1995 (reported only)",
+             {"Q": Q7, "activation_weights": volume})]
     arms = opensim_arms(gait, mus)
     if arms is not None:
         Rg, Ra = R.copy(), R.copy()

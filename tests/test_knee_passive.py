@@ -53,7 +53,7 @@ def test_the_muscles_carry_the_net_hip_moment_less_the_passive_one():
 def test_an_unknown_passive_model_is_refused():
     from ocp_constraints.biomech.knee_pipeline import run_knee
 
-    with pytest.raises(KneeError, match="unknown passive hip model 'stiff' .*riener-edrich-1999, none"):
+    with pytest.raises(KneeError, match="unknown passive hip model 'stiff' .*riener-edrich-1999, riener-edrich-1999-hip-knee-ankle, none"):
         run_knee(JW_MODEL, "ik", "grf", passive_hip="stiff")
 
 
@@ -80,3 +80,29 @@ def test_comparison_uses_only_the_frames_the_measured_record_covers():
     assert np.isnan(out["r2"]) and np.isnan(out["r"])          # a constant measured curve: undefined, not -inf
     with pytest.raises(KneeError, match=r"measured loads cover 5 \.\.\. 6 s, which is not the gait cycle 0 \.\.\. 1 s"):
         compare(t, {"medial": y}, (np.array([5.0, 6.0]), np.ones(2), np.ones(2)), bw=100.0)
+
+
+def test_riener_edrich_knee_and_ankle_moments_values_and_signs():
+    from ocp_constraints.biomech.knee_passive import (HIP_KNEE_ANKLE, passive_ankle_moment,
+                                                      passive_generalized_forces, passive_knee_moment)
+
+    # the paper's knee and ankle equations at hip 10 deg flexion, knee 30 deg flexion, ankle 10 deg dorsiflexion
+    # (the paper's A is plantarflexion: A = -10; the JW knee_flexion is -30 deg, ankle_angle +10 deg)
+    H, K, A = 10.0, 30.0, -10.0
+    knee = (math.exp(1.800 - 0.0460 * A - 0.0352 * K + 0.0217 * H) - math.exp(-3.971 - 0.0004 * A + 0.0495 * K - 0.0128 * H)
+            - 4.820 + math.exp(2.220 - 0.150 * K))
+    ankle = math.exp(2.1016 - 0.0843 * A - 0.0176 * K) - math.exp(-7.9763 + 0.1949 * A + 0.0008 * K) - 1.792
+    h, k, a = math.radians(10.0), math.radians(-30.0), math.radians(10.0)
+    assert passive_knee_moment(h, k, a) == pytest.approx(knee, rel=1e-12)
+    assert passive_ankle_moment(k, a) == pytest.approx(ankle, rel=1e-12)
+    # physiology: dorsiflexion is resisted (plantarflexion moment), more with the knee straight (gastrocnemii);
+    # a straight knee is pushed into flexion, a deeply flexed one into extension
+    assert passive_ankle_moment(0.0, math.radians(20.0)) > passive_ankle_moment(math.radians(-60.0), math.radians(20.0)) > 5
+    assert passive_knee_moment(0.0, 0.0, 0.0) > 5 and passive_knee_moment(0.0, math.radians(-80.0), 0.0) < -4
+    # generalized forces on the JW coordinates: flexion and plantarflexion are negative there
+    names = ["hip_flexion", "knee_flexion", "ankle_angle"]
+    Q = passive_generalized_forces(HIP_KNEE_ANKLE, names, np.array([[h, k, a]]))
+    assert Q["hip_flexion"][0] == pytest.approx(float(passive_hip_moment(h, k)), rel=1e-12)
+    assert Q["knee_flexion"][0] == pytest.approx(-knee, rel=1e-12)
+    assert Q["ankle_angle"][0] == pytest.approx(-ankle, rel=1e-12)
+    assert set(passive_generalized_forces("riener-edrich-1999", names, np.array([[h, k, a]]))) == {"hip_flexion"}

@@ -3,3 +3,7 @@ MUSCLE_MODELS = ("hill", "ideal")
 METHODS = ("static", "collocation")
 METHOD_TEXT = {"static": "static optimisation",
                "collocation": "direct collocation with activation dynamics over the gait cycle"}
+#: passive moments (Riener & Edrich 1999): the hip's (C5), the hip's, knee's and ankle's (C7), none
+PASSIVE_HIP = ("riener-edrich-1999", "riener-edrich-1999-hip-knee-ankle", "none")
+#: the default (candidate C7, adopted by the rule written before it was run: results/knee/preregistration.md)
+PASSIVE_DEFAULT = PASSIVE_HIP[1]

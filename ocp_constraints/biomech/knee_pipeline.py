@@ -14,7 +14,7 @@ import time
 import numpy as np
 
 from ..errors import OcpConstraintsError
-from .knee_options import METHOD_TEXT, MUSCLE_MODELS
+from .knee_options import METHOD_TEXT, MUSCLE_MODELS, PASSIVE_DEFAULT
 from .knee_model import contact_matrix_function
 from .knee_static import frame_data, solve_static
 from ..errors import KneeError
@@ -121,7 +121,7 @@ class _Phases:
 
 def run_knee(model, motion, grf, measured=None, muscles_on: bool = True, muscle_model: str = "ideal",
              method: str = "static", cutoff: float | None = 6.0, implant_meshes=None, build_model_data: bool = True,
-             passive_hip: str = "riener-edrich-1999", parameters: dict | None = None):
+             passive_hip: str = PASSIVE_DEFAULT, parameters: dict | None = None):
     """Gait cycle -> inverse dynamics -> static optimisation or collocation (-> comparison). Returns a dict.
 
     ``method``: ``"static"`` (per-frame static optimisation, :mod:`.knee_static`) or
@@ -138,8 +138,10 @@ def run_knee(model, motion, grf, measured=None, muscles_on: bool = True, muscle_
     dynamics runs once, on the samples of the right gait cycle only (the cycle is found from
     the plates that the inverse dynamics gives to the right foot).
 
-    ``passive_hip``: ``"riener-edrich-1999"`` (default) takes the passive hip flexion moment of
-    :mod:`.knee_passive` off the muscles' share of the hip flexion balance; ``"none"`` leaves
+    ``passive_hip``: ``"riener-edrich-1999-hip-knee-ankle"`` (default) takes the passive hip flexion,
+    knee flexion and ankle plantarflexion moments of :mod:`.knee_passive` off the muscles' share of
+    the hip_flexion, knee_flexion and ankle_angle balances; ``"riener-edrich-1999"`` only the hip's
+    (issue 15's first round, candidate C5); ``"none"`` leaves
     the whole net moment to the muscles (and reserves).
 
     ``parameters``: condyle centres that replace the model file's (:func:`condyle_overrides`),
@@ -188,15 +190,16 @@ def run_knee(model, motion, grf, measured=None, muscles_on: bool = True, muscle_
     phase("contact matrix function")
     Qc, R, A = frame_data(gait, paths, contact_A)
     phase("frame data")
-    passive = None
-    if passive_hip != "none":           # passive structures carry part of the hip flexion moment
-        from .knee_passive import passive_hip_moment
+    passive, moments = None, {}
+    if passive_hip != "none":           # passive structures carry part of the net moments (Riener & Edrich 1999)
+        from .knee_passive import passive_generalized_forces
         from .knee_static import RESERVED
 
-        names, P = gait.coordinate_names, gait.states["p"]
-        passive = passive_hip_moment(P[:, names.index("hip_flexion")], P[:, names.index("knee_flexion")])
+        moments = passive_generalized_forces(passive_hip, gait.coordinate_names, gait.states["p"])
+        passive = moments["hip_flexion"]
         Qc = Qc.copy()
-        Qc[:, RESERVED.index("hip_flexion")] -= passive
+        for c, m in moments.items():
+            Qc[:, RESERVED.index(c)] -= m
     hill = None
     if muscle_model == "hill":
         from .knee_hill import hill_forces, scale_lengths
@@ -217,6 +220,7 @@ def run_knee(model, motion, grf, measured=None, muscles_on: bool = True, muscle_
     bw = sum(b.mass for b in gait.osim.bodies.values()) * float(np.linalg.norm(gait.osim.gravity))
     out = {"result": res, "gait": gait, "cycle": (t0, t1), "phases": cycle["phases"], "bw": bw, "F0": F0, "hill": hill, "muscle_model": muscle_model,
            "method": method, "model_data": data, "passive_hip": (passive_hip, passive),
+           "passive_moments": moments,
            "wall_total": time.perf_counter() - clock, "step_times": phase.table}
     if measured is not None:
         meas = read_measured(measured)
@@ -241,6 +245,9 @@ def write_knee_results(run: dict, out, plots: bool = True, inputs: dict | None =
     cols = r.sample_columns()
     if passive is not None:
         cols["passive_hip_flexion_moment"] = passive
+    for c, m in run.get("passive_moments", {}).items():     # generalized forces on the JW coordinates
+        if c != "hip_flexion":
+            cols[f"passive_{c}_generalized_force"] = m
     write_csv(folder / "loads.csv", r.t, cols)
     write_sto(folder / "loads.sto", r.t, cols)        # OpenSim storage files (inDegrees=no)
     write_sto(folder / "muscle_forces.sto", r.t, {m: r.force[:, i] for i, m in enumerate(r.muscles)})
@@ -262,7 +269,7 @@ def write_knee_results(run: dict, out, plots: bool = True, inputs: dict | None =
                "model_data": run["model_data"].summary() if run.get("model_data") else None,
                "muscle_model": _muscle_model_text(run),
                "peak_reserve_Nm": {c: float(np.abs(r.reserve[:, i]).max()) for i, c in enumerate(RESERVED)},
-               "passive_hip": _passive_text(passive_name, passive),
+               "passive_hip": _passive_text(passive_name, passive, run.get("passive_moments", {})),
                "peak_bw": {"medial": float(r.medial.max() / run["bw"]), "lateral": float(r.lateral.max() / run["bw"]),
                            "total": float(r.total.max() / run["bw"])},
                "comparison": run.get("comparison"), "software": software_versions()}
@@ -292,11 +299,15 @@ def write_knee_results(run: dict, out, plots: bool = True, inputs: dict | None =
 
 
 
-def _passive_text(name: str, passive) -> dict:
+def _passive_text(name: str, passive, moments: dict | None = None) -> dict:
     if passive is None:
         return {"model": "none: the muscles (and reserves) carry the whole net hip flexion moment"}
-    from .knee_passive import SOURCE
+    from .knee_passive import HIP_KNEE_ANKLE, SOURCE, SOURCE_ALL
 
+    if name == HIP_KNEE_ANKLE:
+        return {"model": name, "source": SOURCE_ALL,
+                "applied_to": "hip_flexion, knee_flexion and ankle_angle balances (muscles' share = Q - Q_passive)",
+                "range_Nm": {c: [float(m.min()), float(m.max())] for c, m in (moments or {}).items()}}
     return {"model": name, "source": SOURCE, "applied_to": "hip_flexion balance (muscles' share = Q - M_passive)",
             "range_Nm": [float(passive.min()), float(passive.max())]}
 

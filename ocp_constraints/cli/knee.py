@@ -4,7 +4,7 @@ from __future__ import annotations
 import os
 import sys
 
-from ..biomech.knee_options import METHOD_TEXT, METHODS, MUSCLE_MODELS
+from ..biomech.knee_options import METHOD_TEXT, METHODS, MUSCLE_MODELS, PASSIVE_DEFAULT, PASSIVE_HIP
 from ..errors import OcpConstraintsError
 from .interruption import write_if_interrupted
 from .help import JW_MODEL, JW_TRIAL, HelpFormatter, example
@@ -36,9 +36,10 @@ def add_knee_parser(subparsers) -> None:
     f.add_argument("--cutoff", type=float, default=6.0,
                    help="low-pass cutoff of the coordinates [Hz], 0 < cutoff < the motion's Nyquist frequency (default 6)")
     f.add_argument("--no-filter", action="store_true", help="use the coordinates unfiltered (no low-pass)")
-    k.add_argument("--passive-hip", choices=("riener-edrich-1999", "none"), default="riener-edrich-1999",
-                   help="passive hip flexion moment taken off the muscles' share (default: Riener & Edrich 1999, "
-                        "in vivo, all passive structures); none: muscles carry the whole net moment")
+    k.add_argument("--passive-hip", choices=PASSIVE_HIP, default=PASSIVE_DEFAULT,
+                   help="passive moments taken off the muscles' share (Riener & Edrich 1999, in vivo, all passive "
+                        "structures): riener-edrich-1999-hip-knee-ankle the hip's, knee's and ankle's (default), "
+                        "riener-edrich-1999 the hip's only; none: muscles carry the whole net moments")
     k.add_argument("--implant-meshes", default=None, metavar="DIR",
                    help="folder with the implant's contact meshes (femPoints_188.csv, tibPoints_100.csv, "
                         "facesTib1_100.csv, facesTib2_100.csv): needed once for a model other than the JW model")
@@ -70,14 +71,14 @@ def cli_knee(args) -> int:
         cutoff = None if getattr(args, "no_filter", False) else getattr(args, "cutoff", 6.0)
         run = run_knee(args.model, args.motion, args.grf, args.measured, muscle_model=args.muscle_model,
                        method=args.method, cutoff=cutoff, implant_meshes=getattr(args, "implant_meshes", None),
-                       passive_hip=getattr(args, "passive_hip", "riener-edrich-1999"),
+                       passive_hip=getattr(args, "passive_hip", PASSIVE_DEFAULT),
                        parameters=_params(getattr(args, "param", [])))
         summary = write_knee_results(run, args.out, plots=not args.no_plots, figure_process=figures,
                                      inputs={"model": str(args.model), "motion": str(args.motion), "grf": str(args.grf),
                                              "measured": None if args.measured is None else str(args.measured),
                                              "method": args.method, "muscle_model": args.muscle_model,
                                              "cutoff_hz": cutoff, "no_filter": cutoff is None,
-                                             "passive_hip": getattr(args, "passive_hip", "riener-edrich-1999"),
+                                             "passive_hip": getattr(args, "passive_hip", PASSIVE_DEFAULT),
                                              "parameters": {k: float(v) for k, v in
                                                             _params(getattr(args, "param", [])).items()}})
     except OcpConstraintsError as exc:
