@@ -37,6 +37,18 @@ def cache_dir() -> Path:
 
 
 def _compiler() -> list[str] | None:
+    """The C compiler's command, looked up once per ``$CC`` and ``$PATH`` (a lookup stats ~20 files)."""
+    key = (os.environ.get("CC", ""), os.environ.get("PATH", ""))
+    if key not in _COMPILERS:
+        _COMPILERS[key] = _find_compiler()
+    found = _COMPILERS[key]
+    return None if found is None else list(found)
+
+
+_COMPILERS: dict[tuple[str, str], list[str] | None] = {}
+
+
+def _find_compiler() -> list[str] | None:
     import shlex
     import shutil
 

@@ -116,9 +116,10 @@ class _Integrators:
         dae = ca.Function("forward_dae", [tau, self.dae["x"], none, self.dae["p"], none],
                           [ca.densify(self.dae["ode"]), ca.MX(0, 1), ca.densify(power), ca.MX(0, 1)],
                           ca.dyn_in(), ca.dyn_out())
-        self.compile = _use_compiled(opts, dae)
+        key = _content_key(dae) if opts.compiled != "never" else None   # serialized once, not per use
+        self.compile = _use_compiled(opts, dae, key)
         # Compiled (with its Jacobian for CVODES's Newton iterations), or CasADi's VM.
-        self.dae_function = compiled(dae, with_jacobian=True) if self.compile else dae
+        self.dae_function = compiled(dae, with_jacobian=True, key=key) if self.compile else dae
         self._cache: dict[tuple[int, float], ca.Function] = {}
         self._samples = _SampleFunctions(eqs, self.compile)
 
@@ -151,12 +152,18 @@ def _integrators_for(eqs: SystemEquations, opts: SimulationOptions) -> _Integrat
     return cache[key]
 
 
-def _use_compiled(opts: SimulationOptions, dae: ca.Function) -> bool:
+def _use_compiled(opts: SimulationOptions, dae: ca.Function, key: str | None = None) -> bool:
     """``opts.compiled``: "always", "never", or "auto": the compiled library when the disk cache has
     it (a run with "always" made it), compiled here from ``COMPILE_ABOVE_NX`` states on."""
     if opts.compiled in ("always", "never"):
         return opts.compiled == "always"
-    return dae.size1_in(1) >= COMPILE_ABOVE_NX or is_cached(dae, with_jacobian=True)
+    return dae.size1_in(1) >= COMPILE_ABOVE_NX or is_cached(dae, with_jacobian=True, key=key)
+
+
+def _content_key(f: ca.Function) -> str:
+    """``f``'s serialized form (its whole expression graph), the content :mod:`.compiled` names a library
+    by: serialized once here for both the cache lookup and the load (the same name as without a key)."""
+    return f.serialize()
 
 
 class _SampleFunctions:

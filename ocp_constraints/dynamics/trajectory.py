@@ -11,6 +11,7 @@ import numpy as np
 
 from ..errors import SimulationError
 from ..mechanics.equations import SystemEquations
+from ..mechanics.fast_eval import Buffered
 from .result import MechanicalResult
 
 
@@ -154,6 +155,6 @@ def mapped(f, *columns) -> list[np.ndarray]:
     sample. Returns, per output, samples x size (a scalar output: one value per sample); only
     column-vector outputs are meaningful."""
     n = len(columns[0])
-    out = f.map(n)(*[np.asarray(c, float).reshape(n, -1).T for c in columns])
-    rows = [np.asarray(o).reshape(-1, n).T for o in (out if isinstance(out, (list, tuple)) else [out])]
+    out = Buffered(f.map(n))(*[np.asarray(c, float).reshape(n, -1).T for c in columns])
+    rows = [o.reshape(-1, n, order="F").T for o in out]
     return [r[:, 0] if r.shape[1] == 1 else r for r in rows]

@@ -8,13 +8,12 @@ from __future__ import annotations
 import time
 from dataclasses import asdict
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import numpy as np
 
 from ..mechanics.equations import SystemEquations
 from ..errors import SimulationError
-from ..ocp.problem import OptimalControlProblem
-from ..ocp.solution import OCPSolution
 from ..errors import OCPSolveError
 from ..errors import interruption_reason
 from ..output.files import software_versions, write_csv, write_json
@@ -26,6 +25,10 @@ from .registry import Scene
 from ..dynamics.simulate import SimulationOptions, simulate
 from ..dynamics.trajectory import Trajectory
 from ..mechanics.state import consistent_state
+
+if TYPE_CHECKING:   # annotations only: a simulation does not import the optimal-control code
+    from ..ocp.problem import OptimalControlProblem
+    from ..ocp.solution import OCPSolution
 
 DRIFT_METHOD = (
     "acceleration-level constraints in a KKT system (sparse QR, no mass-matrix inversion), "
@@ -39,7 +42,7 @@ def energy_balance(traj: Trajectory) -> dict[str, float | list]:
 
     ``relative_error`` is ``max |E(t) - E(0) - W(t)| / max(|E|, T)`` over the run.
     """
-    T, U = _mapped(traj.eqs.energy_function, traj.q, traj.u)   # = traj.energy(), one call for all samples
+    T, U = traj.energy()   # one mapped call for all samples
     E = T + U
     W = traj.work.sum(axis=1) + traj.applied_work
     scale = max(float(np.abs(E).max()), float(T.max()), 1e-300)
@@ -53,23 +56,10 @@ def energy_balance(traj: Trajectory) -> dict[str, float | list]:
     }
 
 
-def _mapped(f, *columns) -> list[np.ndarray]:
-    """``f`` evaluated on every sample (rows of ``columns``) in one mapped call. Returns, per output,
-    samples x size (a scalar output: one value per sample); only column-vector outputs are meaningful."""
-    n = len(columns[0])
-    out = f.map(n)(*[np.asarray(c, float).reshape(n, -1).T for c in columns])
-    rows = [np.asarray(o).reshape(-1, n).T for o in (out if isinstance(out, (list, tuple)) else [out])]
-    return [r[:, 0] if r.shape[1] == 1 else r for r in rows]
-
-
 def residuals(traj: Trajectory) -> tuple[float, float]:
     """``traj.residuals()`` (largest ``|phi|`` and ``|G u + e|``, drifts before projections included)
     with the constraint functions evaluated on all samples in one mapped call."""
-    pos, vel = traj.max_drift
-    if not len(traj):
-        return pos, vel
-    _, _, phi, pi, _ = _mapped(traj.eqs.constraint_functions, traj.q, traj.u, traj.t, traj.inputs)
-    return max(pos, float(np.abs(phi).max(initial=0.0))), max(vel, float(np.abs(pi).max(initial=0.0)))
+    return traj.residuals()
 
 
 def simulate_scene(scene: Scene, t_final: float | None = None, options: SimulationOptions | None = None) -> Trajectory:
@@ -231,7 +221,8 @@ def run_optimal_control(problem: OptimalControlProblem, scene_name: str, task: s
         "message": "" if error is None else str(error),
         "parameters": problem.model.parameters,
         "solver": {"nlp_solver": "ipopt", "transcription": method.label, "intervals": method.intervals,
-                   "degree": getattr(method, "degree", None), "ipopt_options": ipopt_options or {}},
+                   "degree": getattr(method, "degree", None), "ipopt_options": ipopt_options or {},
+                   "coordinates": problem.coordinates},
         "iterations": sol.iterations,
         "t_final": sol.t_final,
         "wall_time": {"build": sol.wall_time["transcription"] + sol.wall_time["solver_setup"], **sol.wall_time},
