@@ -45,6 +45,9 @@ def add_scene_parsers(sub) -> None:
                    help="multi-start: solve from K guesses (the task's and K-1 perturbed), keep the best, "
                         "report the local optima (default 1)")
     o.add_argument("--seed", type=int, default=0, metavar="S", help="seed of the --starts perturbations (default 0)")
+    o.add_argument("--coordinates", default="maximal", choices=["maximal", "joint"],
+                   help="NLP coordinates: every body's (maximal, default) or the joints' (joint: bodies on revolute, "
+                        "prismatic and weld joints placed by their joint coordinates; same results files)")
     o.set_defaults(handler=_solve)
 
 
@@ -105,6 +108,7 @@ def _solve(args) -> int:
         raise UsageError(f"--degree {args.degree} applies to --scheme radau only; {args.scheme} has a fixed order. "
                          "Drop --degree, or use --scheme radau")
     task, problem = build_task(args.scene, args.task, parse_param_arguments(args.param))
+    problem.coordinates = getattr(args, "coordinates", "maximal")
     method = scheme_from_name(args.scheme, args.intervals, 3 if args.degree is None else args.degree)
     try:
         sol, summary = run_optimal_control(problem, args.scene, task, method, args.out, plots=not args.no_plots,
