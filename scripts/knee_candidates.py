@@ -159,8 +159,8 @@ def main(out_dir: Path):
              {"contact_weight": 0.1}),
             ("C2b", "objective + contact-load term 1 (N_total/BW)^2", {"contact_weight": 1.0}),
             ("C4", "diagnostic, not a model: hip reserves 1000x cheaper", {"reserve_weights": cheap_hip}),
-            ("C5", "passive hip flexion moment, Riener & Edrich 1999 (adopted)", {"Q": Qp}),
-            ("C7", "passive hip, knee and ankle moments, Riener & Edrich 1999 (preregistered)", {"Q": Q7}),
+            ("C5", "passive hip flexion moment, Riener & Edrich 1999 (first round's model)", {"Q": Qp}),
+            ("C7", "passive hip, knee and ankle moments, Riener & Edrich 1999 (preregistered, adopted)", {"Q": Q7}),
             ("C9", "C7 with volume-weighted effort sum V a^2, Happee & van der Helm 1995 (reported only)",
              {"Q": Q7, "activation_weights": volume})]
     arms = opensim_arms(gait, mus)
@@ -171,7 +171,8 @@ def main(out_dir: Path):
         rows += [("C3a", "gastrocnemii: moment arms by OpenSim's computeMomentArm, not -dL/dq of the fitted length",
                   {"R": Rg}),
                  ("C3b", "every muscle: moment arms by OpenSim's computeMomentArm", {"R": arms}),
-                 ("C3a+C5", "gastrocnemius moment arms of C3a with the passive hip moment of C5", {"R": Rg, "Q": Qp})]
+                 ("C3a+C5", "gastrocnemius moment arms of C3a with the passive hip moment of C5", {"R": Rg, "Q": Qp}),
+                 ("C10", "C7 with the gastrocnemius moment arms of C3a (reported only)", {"R": Rg, "Q": Q7})]
         err = np.abs(arms - R).max(axis=0)                     # rows x muscles
         worst = {c: {mus[k]: float(err[j, k]) for k in np.argsort(-err[j])[:3]} for j, c in enumerate(ROWS)}
     else:
@@ -233,7 +234,7 @@ def contact_points_on_mesh(out_dir: Path) -> dict:
 
 def plot_before_after(out_dir: Path) -> Path:
     """``before_after.png``: medial, lateral, total of ``<out>/before/loads.csv`` (issue 14's model) and
-    ``<out>/loads.csv`` (with the passive hip moment) against the measured loads."""
+    ``<out>/loads.csv`` (the default: passive hip, knee and ankle moments) against the measured loads."""
     import csv
 
     import matplotlib
@@ -247,7 +248,7 @@ def plot_before_after(out_dir: Path) -> Path:
                 *(np.array([float(r[c]) for r in rows]) for c in ("N_medial", "N_lateral")))
 
     tm, mm, ml = read_measured(TRIAL["KCF"])
-    runs = {"before (no passive hip moment)": load(out_dir / "before"), "after (passive hip moment)": load(out_dir)}
+    runs = {"before (no passive hip moment)": load(out_dir / "before"), "after (passive hip, knee and ankle moments)": load(out_dir)}
     fig, axes = plt.subplots(3, 1, figsize=(8, 9), sharex=True)
     for ax, k in zip(axes, ("medial", "lateral", "total")):
         for (label, (t, m, l)), style in zip(runs.items(), (":", "-")):
