@@ -29,7 +29,7 @@ def rod_inertia(m: float, length: float, axis: int) -> np.ndarray:
     return np.diag(d)
 
 
-def acrobot():
+def acrobot(coordinates: str = "maximal") -> oc.OptimalControlProblem:
     """Two rods hinged at the origin (shoulder, passive) and to each other (elbow, motor torque),
     swinging in the E1-E2 plane; from hanging at rest to upright at rest, min int tau^2 with
     |tau| <= tau_max. Each rod hangs along its body -e2 at psi = 0 (3-2-1 angles)."""
@@ -42,7 +42,7 @@ def acrobot():
                        other=upper.point("bottom", (0, -p["l1"] / 2, 0)))
     tau = model.add_input("elbow_motor")
     model.add_torque("elbow_motor", lower, ca.vertcat(0, 0, tau), reaction_body=upper)
-    ocp = oc.OptimalControlProblem(model, t_final=p["T"])
+    ocp = oc.OptimalControlProblem(model, t_final=p["T"], coordinates=coordinates)
     rest = {"upper.psi_dot": 0.0, "lower.psi_dot": 0.0}
     ocp.initial({"upper.psi": 0.0, "lower.psi": 0.0, **rest})
     ocp.final({"upper.psi": math.pi, "lower.psi": math.pi, **rest})
@@ -51,7 +51,7 @@ def acrobot():
     return ocp
 
 
-def cart_double_pendulum():
+def cart_double_pendulum(coordinates: str = "maximal") -> oc.OptimalControlProblem:
     """A cart on a rail along E1 (prismatic joint to ground) carrying two rods in a chain; a push
     on the cart swings both rods from hanging to upright, rest to rest, cart back at the start."""
     p = P.CART_DOUBLE
@@ -65,7 +65,7 @@ def cart_double_pendulum():
                        other=rod1.point("bottom", (0, -p["l1"] / 2, 0)))
     push = model.add_input("push")
     model.add_force("push", cart.com, ca.vertcat(push, 0, 0))
-    ocp = oc.OptimalControlProblem(model, t_final=p["T"])
+    ocp = oc.OptimalControlProblem(model, t_final=p["T"], coordinates=coordinates)
     rest = {"cart.vbar_x": 0.0, "rod1.psi_dot": 0.0, "rod2.psi_dot": 0.0}
     ocp.initial({"cart.x": 0.0, "rod1.psi": 0.0, "rod2.psi": 0.0, **rest})
     ocp.final({"cart.x": 0.0, "rod1.psi": math.pi, "rod2.psi": math.pi, **rest})
@@ -75,7 +75,7 @@ def cart_double_pendulum():
     return ocp
 
 
-def four_bar():
+def four_bar(coordinates: str = "maximal") -> oc.OptimalControlProblem:
     """Crank, coupler and rocker in the E1-E2 plane (each rod along its body e1): revolute joints
     crank-ground at O, coupler-crank at A, rocker-ground at D, and at B a point-on-line joint
     (coupler-rocker, the loop's last pin: its in-plane components only, so no redundancy). A
@@ -95,7 +95,7 @@ def four_bar():
                             axis=(0, 0, 1))
     motor = model.add_input("motor")
     model.add_torque("motor", crank, ca.vertcat(0, 0, motor))
-    ocp = oc.OptimalControlProblem(model, t_final=p["T"])
+    ocp = oc.OptimalControlProblem(model, t_final=p["T"], coordinates=coordinates)
     ocp.initial({"crank.psi": 0.0, "crank.psi_dot": 0.0})
     ocp.final({"crank.psi": 2 * math.pi, "crank.psi_dot": 0.0})
     # The one guess: the rocker stands about upright. Without it the assembly is searched from

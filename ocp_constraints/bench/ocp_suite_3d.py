@@ -13,7 +13,7 @@ from . import ocp_suite_params as P
 from .ocp_suite import rod_inertia
 
 
-def rolling_disk():
+def rolling_disk(coordinates: str = "maximal") -> oc.OptimalControlProblem:
     """A thin disk (3-1-3 angles, symmetry axis e3) rolling without slipping on the plane z = 0,
     driven by a torque (fixed basis, three inputs) from rest upright at the origin to rest upright
     at (x, y) with heading psi; min int |tau|^2, the contact force inside the friction cone.
@@ -27,7 +27,7 @@ def rolling_disk():
     oc.joints.rolling_contact(model, "contact", contact)
     tau = ca.vertcat(*[model.add_input(f"tau_{a}") for a in "xyz"])
     model.add_torque("hands", disk, tau)
-    ocp = oc.OptimalControlProblem(model, t_final=p["T"])
+    ocp = oc.OptimalControlProblem(model, t_final=p["T"], coordinates=coordinates)
     rest = {"disk.psi_dot": 0.0, "disk.theta_dot": 0.0, "disk.phi_dot": 0.0}
     ocp.initial({"disk.x": 0.0, "disk.y": 0.0, "disk.psi": 0.0, "disk.theta": math.pi / 2, "disk.phi": 0.0, **rest})
     ocp.final({"disk.x": p["x"], "disk.y": p["y"], "disk.psi": p["psi"], "disk.theta": math.pi / 2, **rest})
@@ -36,7 +36,7 @@ def rolling_disk():
     return ocp
 
 
-def quadrotor_load():
+def quadrotor_load(coordinates: str = "maximal") -> oc.OptimalControlProblem:
     """A quadrotor (unit quaternion) with four rotor thrusts along its e3 and their drag torque
     about e3, carrying a small ball on a massless rod of length L hung from a hook below its center:
     the rod is one constraint written by hand between two bodies, ``f . v_ball - f . v_hook = 0``
@@ -57,7 +57,7 @@ def quadrotor_load():
     for k, (x, y) in enumerate(((a, 0), (0, a), (-a, 0), (0, -a))):
         model.add_force(f"rotor{k + 1}", quad.point(f"rotor{k + 1}", (x, y, 0)), thrust[k] * quad.e(3))
     model.add_torque("drag", quad, p["k"] * (thrust[0] - thrust[1] + thrust[2] - thrust[3]) * quad.e(3))
-    ocp = oc.OptimalControlProblem(model, t_final=p["T"])
+    ocp = oc.OptimalControlProblem(model, t_final=p["T"], coordinates=coordinates)
     still = {f"{b}.{s}": 0.0 for b in ("quad", "ball") for s in ("vbar_x", "vbar_y", "vbar_z")}
     still.update({f"quad.omega_{c}": 0.0 for c in "xyz"})
     level = {"quad.qw": 1.0, "quad.qx": 0.0, "quad.qy": 0.0, "quad.qz": 0.0}
@@ -78,7 +78,7 @@ def quadrotor_load():
 LINKS = ("stance_shank", "stance_thigh", "torso", "swing_thigh", "swing_shank")
 
 
-def walker():
+def walker(coordinates: str = "maximal") -> oc.OptimalControlProblem:
     """Five rods in the E1-E2 plane, each along its body e2 from its lower end to its upper end
     (3-2-1 angles; a lean of the upper end towards +E1 is psi = -lean): the stance foot on a
     revolute joint to the ground at the origin, knees and hips revolute joints between bodies, motor
@@ -108,7 +108,7 @@ def walker():
     model.add_torque("ankle", ss, ca.vertcat(0, 0, ankle))
     for name, child, parent in (("hip1", st, tr), ("hip2", wt, tr), ("knee1", ss, st), ("knee2", ws, wt)):
         model.add_torque(name, child, ca.vertcat(0, 0, model.add_input(name)), reaction_body=parent)
-    ocp = oc.OptimalControlProblem(model, t_final=p["T"])
+    ocp = oc.OptimalControlProblem(model, t_final=p["T"], coordinates=coordinates)
     stance = [p["stance_shank"], p["stance_thigh"], p["torso"]]
     a, b = p["swing_thigh"], p["swing_shank"]
     for ends, swing in ((ocp.initial, [a, b]), (ocp.final, [-b, -a])):

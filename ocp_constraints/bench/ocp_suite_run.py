@@ -4,16 +4,19 @@ Per problem (:data:`PROBLEMS`):
 
 1. ours: the problem of :mod:`.ocp_suite` / :mod:`.ocp_suite_3d`, from its user-level guess, Radau
    degree 3 on ``N`` intervals, built and solved ``runs`` times from scratch (median time: from
-   an empty model to the solution, so the equations' derivation and the NLP's build count);
+   an empty model to the solution, so the equations' derivation and the NLP's build count), once
+   in maximal coordinates (the default) and once with ``coordinates="joint"``;
 2. rockit: the minimal-coordinate problem of :mod:`.ocp_suite_minimal` in rockit, the same
    degree and ``N``, from the same guess (median time: from an empty ``rockit.Ocp`` to the solution);
+   the three alternate run by run, so they see the same machine load;
 3. ours on a fine mesh (``fine``), started from the coarse solution (mesh refinement);
 4. the reference: the minimal-coordinate problem by the plain collocation of :mod:`.ocp_suite_peers`
    on its fine mesh, started from our fine solution mapped into minimal coordinates where a
    mapping is given (so it is the same local optimum: the swing-ups have several), else from the
    linear guess; its own mesh error is estimated by a second solve on half its intervals.
 
-Agreement is ``|J_fine - J_ref| / |J_ref|``. Results: ``ocp_suite.csv`` and ``ocp_suite.md``.
+Agreement is ``|J_fine - J_ref| / |J_ref|``. Times are wall (``*_s``) and CPU (``*_cpu_s``) seconds
+of this process. Results: ``ocp_suite.csv`` and ``ocp_suite.md``.
 """
 from __future__ import annotations
 
@@ -78,59 +81,77 @@ PROBLEMS = [
 ]
 
 
-def _ours(sp: SuiteProblem, N: int) -> tuple[dict, object]:
+def _ours(sp: SuiteProblem, N: int, coordinates: str = "maximal") -> tuple[dict, object]:
+    """Build ``sp``'s problem from an empty model and solve it (Radau 3, ``N`` intervals), timed."""
     import ocp_constraints as oc
 
-    started = time.perf_counter()
-    problem = sp.ours()
+    started, cpu = time.perf_counter(), time.process_time()
+    problem = sol = None
     try:
-        sol = problem.solve(oc.Radau(N, degree=3))
+        problem = sp.ours(coordinates=coordinates)
+        sol = problem.solve(oc.Radau(N, degree=3), progress=False)
     except oc.OCPSolveError as exc:
         sol = exc.solution
-    total = time.perf_counter() - started
-    return {"success": sol.success, "status": sol.status, "iterations": sol.iterations, "objective": sol.objective,
-            "solve_s": total, "ipopt_s": sol.wall_time["solve"]}, (problem, sol)
+    except oc.OcpConstraintsError as exc:        # e.g. a model the joint coordinates do not cover
+        return {"success": False, "status": f"{type(exc).__name__}: {exc}"[:200], "iterations": 0,
+                "objective": float("nan"), "solve_s": time.perf_counter() - started,
+                "cpu_s": time.process_time() - cpu, "ipopt_s": float("nan")}, (problem, None)
+    return {"success": bool(sol.success), "status": sol.status, "iterations": sol.iterations,
+            "objective": float(sol.objective), "solve_s": time.perf_counter() - started,
+            "cpu_s": time.process_time() - cpu, "ipopt_s": sol.wall_time["solve"]}, (problem, sol)
+
+
+def _rockit(mp, N: int) -> dict:
+    cpu = time.process_time()
+    row = solve_rockit(mp, N, 3)
+    row["cpu_s"] = time.process_time() - cpu
+    return row
 
 
 def _median_row(rows: list[dict]) -> dict:
     out = dict(rows[-1])
-    for k in ("solve_s", "ipopt_s"):
+    for k in ("solve_s", "cpu_s", "ipopt_s"):
         out[k] = statistics.median(r[k] for r in rows)
     out["success"] = all(r["success"] for r in rows)
     return out
 
 
-def run_problem(sp: SuiteProblem, N: int, runs: int, log=print) -> dict:
-    """One row of the suite's table (see the module docstring)."""
+def _say(log, what: str, r: dict, N: int) -> None:
+    log(f"  {what} N={N}: {r['status']}, {r['iterations']} iterations, J = {r['objective']:.10g}, "
+        f"{r['solve_s']:.2f} s wall, {r['cpu_s']:.2f} s CPU")
+
+
+def run_problem(sp: SuiteProblem, N: int, runs: int, log=print, fine_mesh: tuple[int, int] | None = None) -> dict:
+    """One row of the suite's table (see the module docstring). ``fine_mesh``: ``(intervals, degree)``
+    of our fine solve instead of the problem's own, the reference then on twice the intervals."""
     import ocp_constraints as oc
 
     mp = sp.minimal()
-    ours, peer, kept = [], [], None
+    ours, joint, peer, kept = [], [], [], None
     have_rockit = available("rockit")
-    for _ in range(runs):                 # alternate, so both see the same machine load
+    for _ in range(runs):                 # alternate, so all three see the same machine load
         row, kept = _ours(sp, N)
         ours.append(row)
+        joint.append(_ours(sp, N, "joint")[0])
         if have_rockit:
-            peer.append(solve_rockit(mp, N, 3))
-    ours_row = _median_row(ours)
-    log(f"  {sp.name}: ours Radau3 N={N}: {ours_row['status']}, {ours_row['iterations']} iterations, "
-        f"J = {ours_row['objective']:.10g}, {ours_row['solve_s']:.2f} s")
-    row = {"problem": sp.name, "guess": sp.guess, "N": N, **{f"ours_{k}": v for k, v in ours_row.items()}}
-    if peer:
-        rk = _median_row(peer)
-        row.update({f"rockit_{k}": v for k, v in rk.items()})
-        log(f"  {sp.name}: rockit N={N}: {rk['status']}, {rk['iterations']} iterations, J = {rk['objective']:.10g}, "
-            f"{rk['solve_s']:.2f} s")
+            peer.append(_rockit(mp, N))
+    row = {"problem": sp.name, "guess": sp.guess, "N": N}
+    for prefix, rows in (("ours", ours), ("joint", joint), ("rockit", peer)):
+        if rows:
+            r = _median_row(rows)
+            _say(log, f"{sp.name}: {prefix}", r, N)
+            row.update({f"{prefix}_{k}": v for k, v in r.items() if k != "setting"})
     problem, coarse = kept
-    Nf, df = sp.fine
+    problem = problem or sp.ours()
+    Nf, df = fine_mesh or sp.fine
     started = time.perf_counter()
     try:
-        fine = problem.solve(oc.Radau(Nf, degree=df), warm_start=coarse)
+        fine = problem.solve(oc.Radau(Nf, degree=df), warm_start=coarse, progress=False)
     except oc.OCPSolveError as exc:
         fine = exc.solution
     row.update(fine_setting=f"Radau{df} N={Nf}", fine_success=fine.success, fine_iterations=fine.iterations,
                fine_objective=fine.objective, fine_s=time.perf_counter() - started)
-    Nr, dr = sp.reference
+    Nr, dr = (2 * fine_mesh[0], fine_mesh[1]) if fine_mesh else sp.reference
     start = None if sp.states is None else (lambda t: sp.states(fine, sp.inputs, t))
     ref = collocate(mp, Nr, dr, start=start)
     half = collocate(mp, Nr // 2, dr, start=start)
@@ -147,11 +168,11 @@ def run_problem(sp: SuiteProblem, N: int, runs: int, log=print) -> dict:
     return row
 
 
-COLUMNS = ["problem", "guess", "N", "ours_success", "ours_status", "ours_iterations", "ours_solve_s", "ours_ipopt_s",
-           "ours_objective", "fine_setting", "fine_success", "fine_iterations", "fine_objective", "fine_s",
-           "reference_setting", "reference_success", "reference_objective", "reference_mesh_error", "agreement",
-           "reference_from_guess_objective", "reference_from_guess_success", "rockit_success", "rockit_status",
-           "rockit_iterations", "rockit_solve_s", "rockit_ipopt_s", "rockit_objective"]
+RUN_FIELDS = ["success", "status", "iterations", "objective", "solve_s", "cpu_s", "ipopt_s"]
+COLUMNS = (["problem", "guess", "N"] + [f"{w}_{k}" for w in ("ours", "joint", "rockit") for k in RUN_FIELDS]
+           + ["fine_setting", "fine_success", "fine_iterations", "fine_objective", "fine_s", "reference_setting",
+              "reference_success", "reference_objective", "reference_mesh_error", "agreement",
+              "reference_from_guess_objective", "reference_from_guess_success"])
 
 
 def csv_text(rows: list[dict]) -> str:
@@ -163,22 +184,35 @@ def csv_text(rows: list[dict]) -> str:
     return buf.getvalue()
 
 
+def _cell(r: dict, who: str) -> str:
+    """``yes/no, iterations | wall s (CPU s) | J`` of one solver's runs."""
+    if f"{who}_success" not in r:
+        return "not run | | "
+    ok = "yes" if r[f"{who}_success"] else f"no ({r[f'{who}_status']})"
+    return (f"{ok}, {r[f'{who}_iterations']} | {r[f'{who}_solve_s']:.2f} ({r[f'{who}_cpu_s']:.2f}) | "
+            f"{r[f'{who}_objective']:.6g}")
+
+
+def _ratio(r: dict, who: str, key: str) -> str:
+    if f"rockit_{key}" not in r or not r.get(f"{who}_success"):
+        return "-"
+    return f"{r[f'{who}_{key}'] / r[f'rockit_{key}']:.2f}"
+
+
 def markdown(rows: list[dict], runs: int) -> str:
     """The README table: one line per problem."""
-    head = ("| problem | guess | ours: success, iterations | ours: time (s) | ours: J (N) | fine J, agreement with the "
-            "reference | reference J (its mesh error) | rockit: success, iterations | rockit: time (s) | rockit: J (N) "
-            "| time ours/rockit |")
-    lines = [head, "|" + "---|" * 11]
+    head = ("| problem | guess | ours: success, iterations | ours: time s (CPU s) | ours: J | ours, joint coordinates: "
+            "success, iterations | joint: time s (CPU s) | joint: J | rockit: success, iterations | rockit: time s (CPU s) "
+            "| rockit: J | time / rockit's, ours (CPU) | joint (CPU) | ours, fine mesh: J | reference J (its mesh error) "
+            "| agreement |")
+    lines = [head, "|" + "---|" * 16]
     for r in rows:
-        rk = "rockit_objective" in r
-        ratio = f"{r['ours_solve_s'] / r['rockit_solve_s']:.2f}" if rk else "rockit not installed"
         lines.append(
-            f"| {r['problem']} | {r['guess']} | {'yes' if r['ours_success'] else 'no (' + r['ours_status'] + ')'}, "
-            f"{r['ours_iterations']} | {r['ours_solve_s']:.2f} | {r['ours_objective']:.6f} | "
-            f"{r['fine_objective']:.9g} ({r['fine_setting']}), {r['agreement']:.1e} | "
-            f"{r['reference_objective']:.9g} ({r['reference_mesh_error']:.0e}) | "
-            + (f"{'yes' if r['rockit_success'] else 'no (' + r['rockit_status'] + ')'}, {r['rockit_iterations']} | "
-               f"{r['rockit_solve_s']:.2f} | {r['rockit_objective']:.6f} | {ratio} |" if rk else "| | | |"))
+            f"| {r['problem']} | {r['guess']} | {_cell(r, 'ours')} | {_cell(r, 'joint')} | {_cell(r, 'rockit')} | "
+            f"{_ratio(r, 'ours', 'solve_s')} ({_ratio(r, 'ours', 'cpu_s')}) | "
+            f"{_ratio(r, 'joint', 'solve_s')} ({_ratio(r, 'joint', 'cpu_s')}) | "
+            f"{r['fine_objective']:.10g} ({r['fine_setting']}{'' if r['fine_success'] else ', failed'}) | "
+            f"{r['reference_objective']:.10g} ({r['reference_mesh_error']:.0e}) | {r['agreement']:.1e} |")
     return "\n".join(lines) + "\n"
 
 
@@ -186,9 +220,11 @@ SUITE_START = "<!-- ocp suite: written by `ocp-constraints bench --ocp-suite --r
 SUITE_END = "<!-- end of ocp suite -->"
 
 
-def run_suite(out, runs: int = 3, N: int = 20, only: list[str] | None = None, readme=None, log=print) -> list[dict]:
+def run_suite(out, runs: int = 3, N: int = 20, only: list[str] | None = None, readme=None, log=print,
+              fine_mesh: tuple[int, int] | None = None) -> list[dict]:
     """Run the suite (or the problems ``only``), write ``ocp_suite.csv`` and ``ocp_suite.md`` into ``out``
-    and, with ``readme``, the table between the README's suite markers."""
+    and, with ``readme``, the table between the README's suite markers. ``N``: intervals of the timed
+    solves; ``fine_mesh``: see :func:`run_problem`."""
     from pathlib import Path
 
     from ..errors import SceneError
@@ -210,13 +246,16 @@ def run_suite(out, runs: int = 3, N: int = 20, only: list[str] | None = None, re
         if only and sp.name not in only:
             continue
         log(f"== {sp.name}")
-        rows.append(run_problem(sp, N, runs, log))
+        rows.append(run_problem(sp, N, runs, log, fine_mesh))
     m = machine()
     minutes = (time.perf_counter() - started) / 60
     text = (f"Regenerated by `ocp-constraints bench --ocp-suite{' --readme ' + str(readme) if readme else ''}` "
             f"({minutes:.1f} min on this machine: {m['cpus']} cores, Python {m['python']}, CasADi {m['casadi']}, "
-            f"{m['date']}). Times are medians of {runs} runs, each from an empty model to the solution; ours and "
-            f"rockit both Radau collocation of degree 3 on N = {N} intervals.\n\n" + markdown(rows, runs))
+            f"{m['date']}). Times are medians of {runs} runs, each from an empty model to the solution, wall seconds "
+            f"and in brackets CPU seconds; ours (maximal coordinates, and joint coordinates) and rockit (minimal "
+            f"coordinates) all Radau collocation of degree 3 on N = {N} intervals from the same guess. J: the objective. "
+            f"Agreement: |J_fine - J_ref| / |J_ref|, the reference being minimal-coordinate collocation derived "
+            f"separately (ocp_suite_minimal*.py).\n\n" + markdown(rows, runs))
     write_atomic(folder / "ocp_suite.csv", csv_text(rows).encode())
     write_atomic(folder / "ocp_suite.md", text.encode())
     if readme is not None:

@@ -6,6 +6,15 @@ from .help import HelpFormatter, example
 
 
 def cli_bench(args) -> int:
+    if args.ocp_suite:
+        from ..bench.ocp_suite_run import run_suite
+        from ..errors import SceneError
+
+        if args.runs < 1 or args.ocp_n < 1:
+            raise SceneError(f"bench --ocp-suite: --runs and --ocp-n must be at least 1, got {args.runs} and {args.ocp_n}")
+        rows = run_suite(args.out, runs=args.runs, N=args.ocp_n, only=args.only, readme=args.readme,
+                         fine_mesh=tuple(args.ocp_fine) if args.ocp_fine else None)
+        return 0 if all(r["ours_success"] and r["fine_success"] for r in rows) else 1
     from ..bench.report import run_bench
 
     return run_bench(args)
@@ -25,4 +34,13 @@ def add_bench_parser(subparsers) -> None:
     b.add_argument("--runs", type=int, default=3, metavar="N", help="runs per setting, median kept (default 3, at least 3)")
     b.add_argument("--no-scaling", action="store_true", help="skip the scaling and slow stress runs")
     b.add_argument("--readme", metavar="PATH", help="also write the report into PATH between its bench markers")
+    b.add_argument("--ocp-suite", action="store_true",
+                   help="the user-problem OCP suite instead (acrobot, cart_double_pendulum, four_bar, rolling_disk, "
+                        "quadrotor_load, walker): ours, ours in joint coordinates and rockit, against minimal-coordinate "
+                        "references; ocp_suite.csv and .md into --out (--runs: here at least 1)")
+    b.add_argument("--only", nargs="+", metavar="NAME", help="with --ocp-suite: only these problems")
+    b.add_argument("--ocp-n", type=int, default=20, metavar="N", help="with --ocp-suite: intervals of the timed solves (default 20)")
+    b.add_argument("--ocp-fine", type=int, nargs=2, metavar=("N", "DEGREE"),
+                   help="with --ocp-suite: our fine mesh for every problem (default: each problem's own), the "
+                        "reference on 2N intervals")
     b.set_defaults(handler=cli_bench)
