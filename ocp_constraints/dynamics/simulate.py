@@ -17,27 +17,19 @@ from contextlib import ExitStack
 from dataclasses import dataclass
 from typing import Callable
 
-import casadi as ca
 import numpy as np
 
 from ..mechanics.equations import SystemEquations
-from ..mechanics.fast_eval import Buffered
 from ..errors import ModelError, SimulationError
 from ..mechanics.rotations import UnitQuaternion
 from ..errors import RunInterrupted, SingularConfigurationError, interruption_reason
-from .compiled import compiled, is_cached
+from .integrators import COMPILE_ABOVE_NX, integrators_for  # noqa: F401 (COMPILE_ABOVE_NX: its old home)
 from ..output.signals import polling, raise_if_signalled, signal_mark, signal_since, watching_sigint
 from .preflight import check_initial_state, check_resources, input_function, state_vector
 from .trajectory import Trajectory
 from ..mechanics.state import project_with_drift
 
 
-#: State size from which "auto" compiles the model functions. Measured (bench.peers.forward_duel, 10 s runs,
-#: medians of 3 interleaved, load ~11 on 2 cores): with the libraries cached, compiled runs are 25-30% faster
-#: on the sliding disk and within the noise on the pendulum, while compiling the DAE with its Jacobian and
-#: the sample function takes ~4 s each under load; no break-even size was measured, so "auto" uses
-#: libraries already in the cache (checking costs ~1-2 ms) and compiles nothing itself.
-COMPILE_ABOVE_NX = 10**9
 
 
 @dataclass
@@ -87,115 +79,6 @@ class SimulationOptions:
             raise ModelError(f"simulation option 'compiled' must be 'auto', 'always' or 'never', got {self.compiled!r}")
         if self.method not in ("adams", "bdf"):
             raise ModelError(f"simulation option 'method' must be 'adams' or 'bdf', got {self.method!r}")
-
-
-class _Integrators:
-    """CVODES integrators over ``n`` output samples of ``dt``, built once per ``n``."""
-
-    def __init__(self, eqs: SystemEquations, opts: SimulationOptions):
-        e = self.eqs = eqs
-        self.opts = opts
-        # MX symbols that call the model's SX functions: works whether the forward
-        # dynamics are one SX graph or a sparse numerical solve (large systems).
-        t0, tau, h = ca.MX.sym("t0"), ca.MX.sym("tau"), ca.MX.sym("h")
-        q, u = ca.MX.sym("q", e.nq), ca.MX.sym("u", e.nu)
-        t = t0 + tau
-        # Inputs vary linearly over one output interval of length h: w(tau) = w0 + tau (w1 - w0) / h.
-        n_in = e.inputs.numel()
-        w0, w1 = ca.MX.sym("w0", n_in), ca.MX.sym("w1", n_in)
-        rate = (w1 - w0) / h
-        w = w0 + tau * rate
-        udot, lam = e.forward_dynamics(q, u, t, w, rate)
-        qdot = ca.Function("qdot", [e.q, e.u, e.t], [e.qdot])(q, u, t)
-        econ = ca.Function("e", [e.q, e.t, e.inputs], [e.e])(q, t, w)
-        applied = ca.Function("applied_power", [e.q, e.u, e.t, e.inputs], [e.applied_power])(q, u, t, w)
-        power = ca.vertcat(-lam * econ if e.nc else ca.MX(0, 1), applied)
-        self.dae = {"x": ca.vertcat(q, u), "p": ca.vertcat(t0, h, w0, w1), "t": tau,
-                    "ode": ca.vertcat(qdot, udot), "quad": power}
-        none = ca.MX.sym("none", 0)
-        dae = ca.Function("forward_dae", [tau, self.dae["x"], none, self.dae["p"], none],
-                          [ca.densify(self.dae["ode"]), ca.MX(0, 1), ca.densify(power), ca.MX(0, 1)],
-                          ca.dyn_in(), ca.dyn_out())
-        key = _content_key(dae) if opts.compiled != "never" else None   # serialized once, not per use
-        self.compile = _use_compiled(opts, dae, key)
-        # Compiled (with its Jacobian for CVODES's Newton iterations), or CasADi's VM.
-        self.dae_function = compiled(dae, with_jacobian=True, key=key) if self.compile else dae
-        self._cache: dict[tuple[int, float], ca.Function] = {}
-        self._samples = _SampleFunctions(eqs, self.compile)
-
-    def __call__(self, n: int, step: float | None = None) -> Buffered:
-        """``n`` samples ``step`` apart (default ``dt``; the last step of a run may be shorter); called
-        through CasADi's function buffer (:mod:`~ocp_constraints.mechanics.fast_eval`)."""
-        o = self.opts
-        step = o.dt if step is None else step
-        if (n, step) not in self._cache:
-            grid = [step * (k + 1) for k in range(n)]
-            self._cache[n, step] = Buffered(ca.integrator(
-                f"forward_{n}", "cvodes", self.dae_function, 0.0, grid,
-                {"abstol": o.atol, "reltol": o.rtol, "max_num_steps": o.max_steps,
-                 # CVODES gives up once its step falls below 1e-13 of the segment (it only
-                 # gets there where the rates blow up, e.g. at an Euler singularity); without
-                 # this floor it spends max_steps steps of t + h == t (~1 min) before failing.
-                 "min_step_size": 1e-13 * grid[-1],
-                 "linear_multistep_method": o.method},
-            ))
-        return self._cache[n, step]
-
-
-def _integrators_for(eqs: SystemEquations, opts: SimulationOptions) -> _Integrators:
-    """The integrators of ``eqs`` for these settings, built once per model and settings: a batch of
-    runs of one model (a sweep, a multi-start's re-integrations) builds the DAE and loads its library once."""
-    key = (opts.rtol, opts.atol, opts.max_steps, opts.method, opts.compiled)
-    cache = eqs.__dict__.setdefault("_simulation_integrators", {})
-    if key not in cache:
-        cache[key] = _Integrators(eqs, opts)
-    return cache[key]
-
-
-def _use_compiled(opts: SimulationOptions, dae: ca.Function, key: str | None = None) -> bool:
-    """``opts.compiled``: "always", "never", or "auto": the compiled library when the disk cache has
-    it (a run with "always" made it), compiled here from ``COMPILE_ABOVE_NX`` states on."""
-    if opts.compiled in ("always", "never"):
-        return opts.compiled == "always"
-    return dae.size1_in(1) >= COMPILE_ABOVE_NX or is_cached(dae, with_jacobian=True, key=key)
-
-
-def _content_key(f: ca.Function) -> str:
-    """``f``'s serialized form (its whole expression graph), the content :mod:`.compiled` names a library
-    by: serialized once here for both the cache lookup and the load (the same name as without a key)."""
-    return f.serialize()
-
-
-class _SampleFunctions:
-    """``(q, u, t, w, w') -> (u', lambda, singularity margins)`` over the columns of a segment, in
-    one (mapped) call: no per-sample Python work. A body's configuration is singular where its
-    margin falls below its tolerance (Euler angles: ``|g_1 . (g_2 x g_3)|``; quaternion: the norm)."""
-
-    def __init__(self, eqs: SystemEquations, compile: bool):
-        margins, tols = [], []
-        for b in eqs.bodies:
-            rot, r = b.rotation, b.rotation_parameters
-            if isinstance(rot, UnitQuaternion):
-                margins.append(ca.norm_2(r))
-                tols.append(1e-12)
-            else:
-                margins.append(ca.fabs(rot.basis_volume(r)))
-                tols.append(rot.singularity_tolerance)
-        self.tolerances = np.array(tols, float)
-        margin = ca.Function("margins", [eqs.q], [ca.vertcat(*margins)])
-        args = [ca.MX.sym(n, eqs.nq if n == "q" else eqs.nu if n == "u" else 1 if n == "t" else eqs.inputs.numel())
-                for n in ("q", "u", "t", "w", "rate")]
-        udot, lam = eqs.forward_dynamics(*args)
-        f = ca.Function("sample_values", args, [udot, lam, margin(args[0])])
-        self.function = compiled(f) if compile else f
-        self._maps: dict[int, Buffered] = {}
-
-    def __call__(self, Q, U, T, W, R) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        m = Q.shape[1]
-        if m not in self._maps:
-            self._maps[m] = Buffered(self.function.map(m) if m > 1 else self.function)
-        out = self._maps[m](Q, U, T.reshape(1, m), W, R)
-        return tuple(o.reshape(-1, m, order="F") if o.ndim == 1 else o for o in out)
 
 
 def _failure_message(eqs: SystemEquations, q: np.ndarray, t0: float, t1: float, exc: Exception) -> str:
@@ -262,7 +145,7 @@ def simulate(
     # Samples every dt from t0, and t_final itself (never past it); counted before any is made.
     n_full = int(np.floor(span / opts.dt + 1e-9))
     short_last = span - n_full * opts.dt > 1e-9 * opts.dt
-    integrators = _integrators_for(eqs, opts)
+    integrators = integrators_for(eqs, opts)
     estimate = check_resources(eqs, n_full + 1 + short_last, span, opts.dt, opts.max_memory,
                                lambda: _seconds_per_sample(eqs, q0, u0, t0, n_full, inputs, opts))
     times = t0 + opts.dt * np.arange(n_full + 1)
@@ -280,7 +163,7 @@ def simulate(
     q, u = np.asarray(q0, float).copy(), np.asarray(u0, float).copy()
     work = np.zeros(eqs.nc + 1)
 
-    samples = integrators._samples
+    samples = integrators.samples
 
     def record(ks, Q, U, works, drift_q=0.0, drift_u=0.0) -> None:
         """Samples ``ks`` (columns of ``Q``, ``U``, ``works``), added as one block; the last gets the drifts."""
