@@ -60,17 +60,15 @@ def test_swing_up_in_joint_coordinates_reaches_the_pontryagin_optimum(joint50, r
     assert joint50.sample("rod.psi")[-1] == pytest.approx(np.pi, abs=1e-9)
 
 
-def test_hinge_loads_by_name_match_the_reference_and_the_maximal_transcription(joint50, reference):
+def test_hinge_loads_by_name_match_the_pontryagin_reference(joint50, reference):
     # The hinge's multipliers are not NLP variables here: they come from the rod's balance.
-    # Multipliers of Radau 3 at N = 50 converge at about order d = 3 (README): the maximal
-    # form's error on this mesh is the yardstick, ours must be as small (within 50 %).
-    maximal = _swing_up("maximal").solve(oc.Radau(50, degree=3))
-    scale = 25.15                                     # the largest hinge load (N), test_ocp_reference
+    # Measured max errors over every point, Radau 3, N = 50: 2.4e-4 N (v1) and 3.5e-4 N (v2) here;
+    # the maximal transcription's on the same mesh: 7.3e-3 and 9.6e-3 N (its multipliers are
+    # variables of an index-2 DAE). Bound 1e-3 N, 4e-5 of the largest load (25.15 N).
     ref = reference.multipliers(joint50.t)
     for k in ("hinge.v1.lambda", "hinge.v2.lambda"):
-        ours = np.abs(joint50.sample(k) - ref[k]).max()
-        theirs = np.abs(maximal.sample(k) - ref[k]).max()
-        assert ours <= max(1.5 * theirs, 1e-4 * scale), (k, ours, theirs)
+        assert np.abs(joint50.sample(k) - ref[k]).max() <= 1e-3, k
+    scale = 25.15
     for k in ("hinge.v3.lambda", "hinge.w1.lambda", "hinge.w2.lambda"):
         assert np.abs(joint50.sample(k)).max() <= 1e-9 * scale
     loads = joint50.loads()
@@ -123,23 +121,21 @@ def test_a_hinge_written_by_hand_stays_a_constraint_and_gives_the_same_optimum()
     ocp.final({"rod.psi": np.pi, "rod.psi_dot": 0.0})
     ocp.minimize_effort(["motor"])
     ocp.set_guess("rod.psi", library.guess["rod.psi"])
-    tr = ocp.transcription(oc.Radau(20, degree=3))
+    tr = ocp.transcription(oc.Radau(10, degree=3))
     assert tr.reduced.nc == 5 and tr.reduced.nq == 6
-    by_hand = ocp.solve(oc.Radau(20, degree=3))
-    maximal = library.solve(oc.Radau(20, degree=3))      # joints.revolute, maximal coordinates
+    by_hand = ocp.solve(oc.Radau(10, degree=3))
+    maximal = library.solve(oc.Radau(10, degree=3))      # joints.revolute, maximal coordinates
     assert by_hand.objective == pytest.approx(maximal.objective, rel=1e-9)
     assert np.allclose(by_hand.sample("hinge.v2.lambda"), maximal.sample("hinge.v2.lambda"), atol=1e-7)
 
 
 def test_warm_starts_cross_between_maximal_and_joint_coordinates(joint50):
-    maximal = _swing_up("maximal")
-    warm = maximal.solve(oc.Radau(25, degree=3), warm_start=joint50)
-    joint = _swing_up("joint")
-    back = joint.solve(oc.Radau(25, degree=3), warm_start=warm)
-    cold = _swing_up("joint").solve(oc.Radau(25, degree=3))
+    warm = _swing_up("maximal").solve(oc.Radau(10, degree=3), warm_start=joint50)
+    back = _swing_up("joint").solve(oc.Radau(20, degree=3), warm_start=warm)
+    cold = _swing_up("joint").solve(oc.Radau(20, degree=3))
     assert warm.success and back.success
-    # The maximal form's optimum on this mesh (8.91339) is a different discretization; from it the
-    # joint NLP goes to its own optimum (8.91303), the one it reaches from its own guess.
+    # The maximal form's optimum on its mesh (N = 10: 8.9479) is another discretization; from it the
+    # joint NLP goes to its own optimum, the one it reaches from its own guess.
     assert back.objective == pytest.approx(cold.objective, rel=1e-9)
     assert back.iterations <= cold.iterations
 
