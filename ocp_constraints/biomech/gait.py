@@ -257,7 +257,7 @@ def run_inverse_dynamics(model_path, motion_path, grf_path, start: float | None 
     cutoff = check_cutoff(cutoff, motion)
     plates = grf_plates(grf)
     clock["read"] = time.perf_counter()
-    fns = gait_functions(osim, compiled)
+    fns = gait_functions(osim, compiled, frames=len(t))
     meta = fns.meta
     bodies = meta["bodies"]
     legs = find_legs(osim)

@@ -42,6 +42,10 @@ _PATH = "{osim_path}"        # the model file's path in stored warnings (the sam
 _SOURCES = ("biomech/gait_compiled.py", "biomech/gait_model.py", "biomech/osim_model.py", "biomech/osim_functions.py",
             "dynamics/inverse.py", "mechanics")
 _MEMO: dict[str, "GaitFunctions"] = {}      # per process: a model's functions are loaded once
+#: "auto" compiles from this many frames in one call on (JW, 37,500 operations a frame, loaded 2-core
+#: machine, CPU time: compiling costs 6.3 s once, the virtual machine 0.33 ms a frame, the compiled code
+#: 0.06 ms; both scale with the size of the function, so the break-even, ~23,000 frames, does not)
+COMPILE_ABOVE_FRAMES = 25_000
 
 
 def _source_digest() -> str:
@@ -201,12 +205,13 @@ def _load(key: str) -> GaitFunctions | None:
         return None
 
 
-def gait_functions(osim: OsimModel, compiled: str = "auto", cache: bool = True) -> GaitFunctions:
+def gait_functions(osim: OsimModel, compiled: str = "auto", cache: bool = True, frames: int = 0) -> GaitFunctions:
     """The frame functions of ``osim``: from this process's memory, the disk cache, or built (and saved).
 
-    ``compiled``: ``"auto"`` (machine code when a compiled copy is cached), ``"always"``
-    (compile now if needed: about a minute for a 24-body model, once) or ``"never"``
-    (CasADi's virtual machine). ``cache=False`` neither reads nor writes the disk cache.
+    ``compiled``: ``"auto"`` (machine code when a compiled copy is cached, or compiled now
+    when ``frames`` reaches :data:`COMPILE_ABOVE_FRAMES`), ``"always"`` (compile now if
+    needed: about 6 s of CPU for a 24-body model, once) or ``"never"`` (CasADi's virtual
+    machine). ``cache=False`` neither reads nor writes the disk cache.
     """
     if compiled not in ("auto", "always", "never"):
         raise GaitError(f"option 'compiled' must be 'auto', 'always' or 'never', got {compiled!r}")
@@ -229,7 +234,7 @@ def gait_functions(osim: OsimModel, compiled: str = "auto", cache: bool = True) 
     if compiled != "never" and not fns.compiled:
         from ..dynamics.compiled import compiled as machine_code, is_cached
 
-        if compiled == "always" or is_cached(fns.frame, key=key):
+        if compiled == "always" or frames >= COMPILE_ABOVE_FRAMES or is_cached(fns.frame, key=key):
             code = machine_code(fns.frame, key=key)
             fns.compiled = code is not fns.frame
             fns.frame = code
