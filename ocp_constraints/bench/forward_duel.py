@@ -178,7 +178,7 @@ def duel_markdown(result: dict) -> str:
     error and the time ratios (ours / theirs; below 1: ours faster), then every setting."""
     kinds = result["kinds"]
     head = (f"{result['scene']}, t = 0 ... {result['t_final']:g} s, medians of {result['runs']} interleaved runs "
-            f"({result['load']}). Error: max deviation from the reference ({result['reference']}, rtol 2.3e-14) "
+            f"({result['load']}). Error: max deviation from the reference ({result['reference']}) "
             f"over {', '.join(result['error_on'])} (multipliers relative to the largest).\n\n"
             "| peer rtol | peer error | " + " | ".join(f"peer {k} s (wall / CPU)" for k in kinds) + " | "
             + " | ".join(f"our cheapest {k} (rtol, compiled: error)" for k in kinds) + " | "

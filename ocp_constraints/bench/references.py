@@ -145,7 +145,7 @@ def pendulum_reference(p: dict[str, float], t: np.ndarray, rtol: float = RTOL) -
     return {"states": {"rod.psi": psi, "rod.psi_dot": w},
             "lambda": {"hinge.v1.lambda": F[0], "hinge.v2.lambda": F[1], "hinge.v3.lambda": F[2],
                        "hinge.w1.lambda": M[0], "hinge.w2.lambda": M[1]},
-            "method": "hand-written 1-DOF balance, DOP853 rtol 1e-13"}
+            "method": f"hand-written 1-DOF balance, DOP853 rtol {rtol:g}"}
 
 
 def sliding_cylinder_reference(p: dict[str, float], t: np.ndarray) -> dict[str, np.ndarray]:
@@ -195,7 +195,7 @@ def integrator_reference(scene_name: str, t: np.ndarray, overrides: dict | None 
     lam = np.array([np.asarray(fd(Y[:nq, k], Y[nq:, k], t[k], w0, w0)[1]).ravel() for k in range(len(t))])
     out = {"states": {n: Y[i] for i, n in enumerate(names)},
            "lambda": {f"{c}.lambda": lam[:, k] for k, c in enumerate(eqs.constraint_names)},
-           "method": "integrator only: DOP853 rtol 1e-13 on the library's equations"}
+           "method": f"integrator only: DOP853 rtol {rtol:g} on the library's equations"}
     if scene_name == "sliding_disk":
         # lambda by eq. (4) from the reference motion; theta'' = d/dt (g^2 . omega) by jtimes.
         import casadi as ca
@@ -211,5 +211,5 @@ def integrator_reference(scene_name: str, t: np.ndarray, overrides: dict | None 
             accs.append(float(a[4]))
         th = out["states"]["disk.theta"]
         out["lambda"] = {"contact.n.lambda": sliding_disk_lambda_eq4(scene.model.parameters, th, np.array(rates), np.array(accs))}
-        out["method"] = "states: DOP853 rtol 1e-13 on the library's equations; lambda: paper eq. (4)"
+        out["method"] = f"states: DOP853 rtol {rtol:g} on the library's equations; lambda: paper eq. (4)"
     return out

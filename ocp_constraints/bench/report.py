@@ -16,6 +16,7 @@ from .work_precision import (
     machine,
     markdown_table,
     peer_ratios,
+    plot_multiplier_floor,
     plot_work_precision,
     run_peers,
     write_csv_rows,
@@ -98,6 +99,9 @@ def run_bench(args) -> int:
             if any(r.kind == k for r in rows):
                 print(f"  {s} {k}: cheapest reaching {args.target_error:g}: {_fmt(rec[k])}")
                 print(f"  {s} {k}: cheapest with lambda error <= 1e-8: {_fmt(lam[k])}")
+    sim_rows = [r for rs in by_scene.values() for r in rs if r.kind in ("sim", "peer-sim")]
+    if sim_rows:   # every scene's multiplier error against the tolerance, in one figure (issue 14)
+        write_atomic(out / "multiplier_floor.md", plot_multiplier_floor(out / "multiplier_floor.png", sim_rows).encode())
     summary["duration_s"] = time.perf_counter() - started
     write_atomic(out / "summary.json", json.dumps(summary, indent=1, default=str).encode())
     write_atomic(out / "peers.md", _peer_markdown(ratios, notes).encode())

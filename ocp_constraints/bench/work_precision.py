@@ -81,7 +81,7 @@ def _median_runs(fn, runs: int, *args) -> dict:
 
 
 def run_peers(scenes, quick: bool, runs: int, log=print) -> tuple[list[Row], list[str]]:
-    from .references import pendulum_reference, swing_up_reference, integrator_reference
+    from .references import TIGHTEST_RTOL, pendulum_reference, swing_up_reference, integrator_reference
     from ..scenes.registry import load_scene_module
 
     rows, notes = [], []
@@ -118,7 +118,8 @@ def run_peers(scenes, quick: bool, runs: int, log=print) -> tuple[list[Row], lis
         for rtol in ((1e-10,) if quick else (1e-6, 1e-8, 1e-10, 1e-12)):
             r = _median_runs(fn, runs, t_final, rtol)
             p = load_scene_module(scene).DEFAULTS
-            rf = pendulum_reference(p, r["t"]) if scene == "pendulum" else integrator_reference(scene, r["t"])
+            rf = (pendulum_reference(p, r["t"], TIGHTEST_RTOL) if scene == "pendulum"
+                  else integrator_reference(scene, r["t"], rtol=TIGHTEST_RTOL))
             scale = max(float(np.abs(v).max()) for v in rf["lambda"].values())
             st = max(float(np.abs(r["states"][k] - rf["states"][k]).max()) for k in r["states"] if k in rf["states"])
             le = max(float(np.abs(r["lambda"][k] - rf["lambda"][k]).max()) for k in rf["lambda"]) / scale
@@ -206,6 +207,42 @@ def plot_work_precision(path: Path, scene: str, rows: list[Row]) -> None:
     plt.close(fig)
 
 
+def plot_multiplier_floor(path: Path, rows: list[Row]) -> str:
+    """Multiplier error against the tolerance asked for, every simulated scene in one figure (ours:
+    Adams and BDF; the simulating peers dashed): where a curve stops falling is its floor. Returns a
+    Markdown table of the same numbers (rows: tolerances; columns: scene and method)."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    curves: dict[str, list[tuple[float, float]]] = {}
+    for r in rows:
+        if r.kind in ("sim", "peer-sim") and np.isfinite(r.lambda_err) and r.lambda_err > 0:
+            who = r.scheme if r.kind == "sim" else f"peer {r.scheme}"
+            curves.setdefault(f"{r.scene}: {who}", []).append((r.resolution, r.lambda_err))
+    fig, ax = plt.subplots(figsize=(8, 5.5))
+    for name, pts in sorted(curves.items()):
+        ax.loglog(*zip(*sorted(pts)), "s--" if "peer" in name else ("o-" if "adams" in name else "^:"), label=name, ms=3)
+    if ax.lines:
+        ax.invert_xaxis()
+        ax.legend(fontsize=6, ncol=2)
+    ax.set_xlabel("integrator tolerance rtol = atol")
+    ax.set_ylabel("max multiplier error, relative to the load scale")
+    ax.set_title("Multiplier error against tolerance, every simulated scene (10 s)")
+    ax.grid(True, which="both", alpha=0.3)
+    fig.tight_layout()
+    fig.savefig(path, dpi=110)
+    plt.close(fig)
+    tols = sorted({t for pts in curves.values() for t, _ in pts}, reverse=True)
+    names = sorted(curves)
+    table = ["| rtol | " + " | ".join(names) + " |", "|---|" + "---|" * len(names)]
+    for t in tols:
+        cells = [next((f"{e:.1e}" for tt, e in curves[n] if tt == t), "") for n in names]
+        table.append(f"| {t:g} | " + " | ".join(cells) + " |")
+    return "\n".join(table) + "\n"
+
+
 def machine() -> dict:
     import os
 
@@ -215,4 +252,4 @@ def machine() -> dict:
             "processor": platform.processor() or platform.machine(), "date": time.strftime("%Y-%m-%d %H:%M")}
 
 
-__all__ = ["recommend", "OCP_TASKS", "SIM_SCENES"]
+__all__ = ["recommend", "plot_multiplier_floor", "OCP_TASKS", "SIM_SCENES"]
