@@ -268,6 +268,10 @@ class SystemEquations:
             return
         G = np.asarray(self.constraint_functions(q, np.zeros(self.nu), t, np.zeros(self.inputs.numel()))[0])
         scale = max(1.0, np.abs(G).max())
+        if np.linalg.matrix_rank(G, tol=tol * scale) == self.nc:
+            # Full row rank: by interlacing, every leading set of rows then is too (no row is redundant);
+            # one SVD instead of one per constraint.
+            return
         kept: list[int] = []
         problems, drop, alternatives = [], [], []
         for k in range(self.nc):
