@@ -56,9 +56,16 @@ class FigureProcess:
             return
         ctx = multiprocessing.get_context("fork")
         self._conn, child = ctx.Pipe()
-        self._proc = ctx.Process(target=_serve, args=(child,), name="knee-figure", daemon=True)
-        self._proc.start()
-        child.close()
+        try:
+            proc = ctx.Process(target=_serve, args=(child,), name="knee-figure", daemon=True)
+            proc.start()
+        except (OSError, AssertionError) as exc:   # no fork here, or a daemonic parent (no children allowed)
+            self.error = f"no figure process: {exc}"
+            self._conn.close()
+            return
+        finally:
+            child.close()
+        self._proc = proc
 
     def draw(self, folder: Path, args: tuple, timeout: float = 120.0) -> str | None:
         """Draw ``knee_figure(*args)`` as ``folder/knee_contact.png`` in the child; its name, or None

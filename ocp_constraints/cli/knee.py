@@ -36,7 +36,8 @@ def add_knee_parser(subparsers) -> None:
     f.add_argument("--cutoff", type=float, default=6.0,
                    help="low-pass cutoff of the coordinates [Hz], 0 < cutoff < the motion's Nyquist frequency (default 6)")
     f.add_argument("--no-filter", action="store_true", help="use the coordinates unfiltered (no low-pass)")
-    k.add_argument("--passive-hip", choices=PASSIVE_HIP, default=PASSIVE_DEFAULT,
+    k.add_argument("--passive", "--passive-hip", dest="passive_hip", choices=PASSIVE_HIP, default=PASSIVE_DEFAULT,
+                   metavar="MODEL",
                    help="passive moments taken off the muscles' share (Riener & Edrich 1999, in vivo, all passive "
                         "structures): riener-edrich-1999-hip-knee-ankle the hip's, knee's and ankle's (default), "
                         "riener-edrich-1999 the hip's only; none: muscles carry the whole net moments")
