@@ -269,7 +269,7 @@ def run_inverse_dynamics(model_path, motion_path, grf_path, start: float | None 
     up = -np.asarray(osim.gravity) / np.linalg.norm(osim.gravity)
     in_window = (grf.time >= t.min() - 1e-9) & (grf.time <= t.max() + 1e-9)
     tg = grf.time[in_window]
-    x_g = evaluate(fns.poses.map(len(tg)), splines(tg)[0].T)[1]          # body origins, 3 n_bodies x samples
+    x_g = fns.evaluate(fns.poses, splines(tg)[0].T)[1]          # body origins, 3 n_bodies x samples
     feet = {}
     for s_, leg in legs.items():
         heel, toe = (bodies.index(leg.chain[c]) for c in (-2, -1))
@@ -289,7 +289,7 @@ def run_inverse_dynamics(model_path, motion_path, grf_path, start: float | None 
 
     P, Pd, Pdd = splines(t)
     N, nb = len(t), len(bodies)
-    R = evaluate(fns.poses.map(N), P.T)[0]                                 # 9 n_bodies x samples, column major
+    R = fns.evaluate(fns.poses, P.T)[0]                                    # 9 n_bodies x samples, column major
     quat = quaternions(R.T.reshape(N, nb, 3, 3).transpose(0, 1, 3, 2))    # samples x bodies x 4
     clock["kinematics"] = time.perf_counter()
     F, M_O = np.zeros((N, nb, 3)), np.zeros((N, nb, 3))     # ground loads per body: force, moment about O
@@ -305,8 +305,8 @@ def run_inverse_dynamics(model_path, motion_path, grf_path, start: float | None 
     clock["grf"] = time.perf_counter()
 
     # every frame at once: kinematics, balances (eq. 13), Phi = lambda A + tau (eqs. 38-41), joint loads
-    q, u, ud, fext, lam, tau, gen, residual, values = (a.T for a in evaluate(
-        fns.frame.map(N), P.T, Pd.T, Pdd.T, quat.reshape(N, 4 * nb).T, F.reshape(N, 3 * nb).T,
+    q, u, ud, fext, lam, tau, gen, residual, values = (a.T for a in fns.evaluate(
+        fns.frame, P.T, Pd.T, Pdd.T, quat.reshape(N, 4 * nb).T, F.reshape(N, 3 * nb).T,
         M_O.reshape(N, 3 * nb).T, t[None, :]))
     residual = residual.ravel()
     fns.check_determined(q[0], u[0], t[0], model_path)
