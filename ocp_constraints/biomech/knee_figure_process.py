@@ -90,16 +90,12 @@ class FigureProcess:
         return value
 
     def close(self) -> None:
-        """End the child (idempotent)."""
+        """End the child (idempotent). It has nothing left to finish: :meth:`draw` waits for its answer,
+        so an early error of the run (a bad file) ends at once instead of waiting for matplotlib."""
         if self._proc is None:
             return
         proc, self._proc = self._proc, None
-        try:
-            self._conn.send(None) if proc.is_alive() else None
-        except OSError:
-            pass
         self._conn.close()
-        proc.join(timeout=2.0)
         if proc.is_alive():
             proc.terminate()
-            proc.join(timeout=2.0)
+        proc.join(timeout=2.0)
