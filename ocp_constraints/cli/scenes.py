@@ -36,7 +36,8 @@ def add_scene_parsers(sub) -> None:
     o.add_argument("--scheme", default="radau", choices=["trapezoidal", "hermite-simpson", "radau"],
                    help="collocation scheme (default radau)")
     o.add_argument("--degree", type=int, default=None, metavar="D", help="Radau degree, 1 to 9 (default 3; --scheme radau only)")
-    o.add_argument("--intervals", type=int, default=50, metavar="N", help="mesh intervals (default 50)")
+    o.add_argument("--intervals", type=int, default=None, metavar="N",
+                   help="mesh intervals (default 50; with --tolerance, of the starting mesh: default 10)")
     o.add_argument("--out", default=None, metavar="DIR", help="folder for summary.json, trajectory.csv/.sto, loads.csv/.sto, plots and report.html (default: none written)")
     o.add_argument("--param", action="append", default=[], metavar="NAME=VALUE", help="override a scene parameter")
     o.add_argument("--no-plots", action="store_true", help="write no PNG plots and no report.html")
@@ -45,6 +46,10 @@ def add_scene_parsers(sub) -> None:
                    help="multi-start: solve from K guesses (the task's and K-1 perturbed), keep the best, "
                         "report the local optima (default 1)")
     o.add_argument("--seed", type=int, default=0, metavar="S", help="seed of the --starts perturbations (default 0)")
+    o.add_argument("--tolerance", type=float, default=None, metavar="TOL",
+                   help="hp mesh refinement until the estimated error is at most TOL (states in SI units, "
+                        "multipliers relative to the largest load), starting from --intervals N (default 10 "
+                        "here) of --degree D (default 3); summary.json gets the final mesh, the estimates and the history")
     o.add_argument("--coordinates", default="maximal", choices=["maximal", "joint"],
                    help="NLP coordinates: every body's (maximal, default) or the joints' (joint: bodies on revolute, "
                         "prismatic and weld joints placed by their joint coordinates; same results files)")
@@ -107,13 +112,20 @@ def _solve(args) -> int:
     if args.degree is not None and args.scheme != "radau":
         raise UsageError(f"--degree {args.degree} applies to --scheme radau only; {args.scheme} has a fixed order. "
                          "Drop --degree, or use --scheme radau")
+    tolerance = getattr(args, "tolerance", None)
+    if tolerance is not None and args.scheme != "radau":
+        raise UsageError(f"--tolerance refines Radau meshes (degrees and intervals); {args.scheme} has a fixed order. "
+                         "Drop --scheme, or drop --tolerance")
+    if tolerance is not None and not 0 < tolerance < float("inf"):
+        raise UsageError(f"--tolerance must be a positive number such as 1e-6, got {tolerance!r}")
     task, problem = build_task(args.scene, args.task, parse_param_arguments(args.param))
     problem.coordinates = getattr(args, "coordinates", "maximal")
-    method = scheme_from_name(args.scheme, args.intervals, 3 if args.degree is None else args.degree)
+    intervals = args.intervals if args.intervals is not None else (50 if tolerance is None else 10)
+    method = scheme_from_name(args.scheme, intervals, 3 if args.degree is None else args.degree)
     try:
         sol, summary = run_optimal_control(problem, args.scene, task, method, args.out, plots=not args.no_plots,
                                            reintegrate=args.reintegrate, starts=getattr(args, "starts", 1),
-                                           seed=getattr(args, "seed", 0))
+                                           seed=getattr(args, "seed", 0), tolerance=tolerance)
     except OCPSolveError as exc:
         print(f"error: {exc}", file=sys.stderr)
         if args.out:
@@ -132,6 +144,12 @@ def _solve(args) -> int:
         ms = summary["multistart"]
         optima = ", ".join(f"{o['objective']:.8g} (x{o['count']})" for o in ms["optima"])
         print(f"  {ms['succeeded']} of {ms['starts']} starts solved (seed {ms['seed']}); local optima: {optima}")
+    if "mesh_refinement" in summary:
+        mr = summary["mesh_refinement"]
+        est = ", ".join(f"{q} {v:.1e}" for q, v in mr["estimate"].items())
+        print(f"  mesh refinement to {mr['tolerance']:g}: {'met' if mr['met'] else 'NOT met'} after {mr['refinements']} "
+              f"refinements, {len(mr['degrees'])} intervals of degrees {min(mr['degrees'])}-{max(mr['degrees'])}; "
+              f"estimated error {est}; {mr['total_time_s']:.2f} s in all")
     if "reintegration" in summary:
         print(f"  re-integration of the optimal inputs: max state deviation {summary['reintegration']['max_state_deviation']:.2e}")
     if args.out:

@@ -200,8 +200,9 @@ class OptimalControlProblem:
                 self.coordinates, () if self.coordinates == "maximal" else tuple(sorted(
                     (n, b) for n, b in self.bounds.items() if n not in self.model.inputs)))
 
-    def solve(self, method, ipopt_options: dict | None = None, warm_start=None, *, check: bool = True,
-              progress: bool | None = None, starts: int = 1, seed: int = 0, client=None):
+    def solve(self, method=None, ipopt_options: dict | None = None, warm_start=None, *, check: bool = True,
+              progress: bool | None = None, starts: int = 1, seed: int = 0, client=None,
+              tolerance: float | None = None):
         """Transcribe with ``method`` (a :mod:`~ocp_constraints.ocp.schemes` scheme) and solve with IPOPT.
 
         Before IPOPT starts, :func:`~ocp_constraints.ocp.diagnostics.check_problem` looks for what
@@ -221,7 +222,25 @@ class OptimalControlProblem:
         kept and the spread of the others in ``sol.starts``, ``sol.local_optima``, ``sol.multistart``;
         with a Dask ``client`` the starts run on its workers
         (:func:`~ocp_constraints.ocp.multistart.solve_multistart`).
+        ``tolerance``: the error you accept (states in SI units, multipliers relative to the largest
+        load); hp mesh refinement from ``method`` (a Radau mesh, default 10 intervals of degree 3)
+        until the a-posteriori estimate meets it, the final mesh, the estimate per quantity and the
+        history in ``sol.mesh_refinement`` (:func:`~ocp_constraints.ocp.mesh_refinement.solve_to_tolerance`).
         """
+        if tolerance is not None:
+            from .diagnostics import check_problem
+            from .mesh_refinement import check_tolerance, solve_to_tolerance, start_scheme
+
+            tolerance = check_tolerance(tolerance)
+            if starts != 1:
+                raise ModelError("starts > 1 and tolerance are not combined: refine the best start's solution by "
+                                 "passing it as warm_start with tolerance=...")
+            self.structure_key()
+            if check:
+                check_problem(self, start_scheme(method))
+            return solve_to_tolerance(self, tolerance, method, ipopt_options, warm_start, progress=progress)
+        if method is None:
+            raise ModelError("solve needs a method (e.g. Radau(50, degree=3)) or a tolerance (e.g. tolerance=1e-6)")
         if starts != 1:
             from .multistart import solve_multistart
 

@@ -22,7 +22,6 @@ from __future__ import annotations
 
 import functools
 from dataclasses import dataclass, field
-from functools import lru_cache
 
 import casadi as ca
 import numpy as np
@@ -240,7 +239,7 @@ class Radau(Scheme):
     @property
     def weights(self):
         # Radau quadrature over the d collocation points (exact to degree 2d - 2).
-        return np.concatenate([[0.0], _quadrature_weights(self.tau[1:])])
+        return _radau_tables(self.degree)[0]
 
     @property
     def first_point_has_controls(self) -> bool:
@@ -250,16 +249,27 @@ class Radau(Scheme):
     def start_extrapolation(self) -> np.ndarray:
         """``l_j(0)`` for the Lagrange basis through the collocation points: inputs at ``t_0``
         are the first interval's input polynomial extrapolated there."""
-        pts = self.tau[1:]
-        return np.array([np.prod([(0.0 - pts[s]) / (pts[j] - pts[s]) for s in range(len(pts)) if s != j])
-                         for j in range(len(pts))])
+        return _radau_tables(self.degree)[1]
 
     @property
     def order(self) -> int:
         return 2 * self.degree - 1
 
 
-@lru_cache(maxsize=None)
+@functools.lru_cache(maxsize=None)
+def _radau_tables(degree: int) -> tuple[np.ndarray, np.ndarray]:
+    """Quadrature weights and ``l_j(0)`` of Radau ``degree``, computed once: an hp mesh asks for
+    them once per interval (numpy.poly1d algebra, ~20 ms each)."""
+    pts = np.asarray(ca.collocation_points(degree, "radau"), float)
+    extrapolation = np.array([np.prod([(0.0 - pts[s]) / (pts[j] - pts[s]) for s in range(len(pts)) if s != j])
+                              for j in range(len(pts))])
+    weights = np.concatenate([[0.0], _quadrature_weights(pts)])
+    for a in (weights, extrapolation):
+        a.setflags(write=False)
+    return weights, extrapolation
+
+
+@functools.lru_cache(maxsize=None)
 def _uniform_radau(degree: int) -> Radau:
     """The one-interval Radau scheme of ``degree`` (its tau, matrices and weights), shared."""
     return Radau(1, None, degree=degree)

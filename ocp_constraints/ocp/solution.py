@@ -37,6 +37,8 @@ class OCPSolution(Result):
     stats: dict
     wall_time: dict
     trajectory: Trajectory = field(repr=False, default=None)
+    # Filled by problem.solve(tolerance=...): final mesh, estimate per quantity, history (mesh_refinement.py).
+    mesh_refinement: dict | None = field(repr=False, default=None)
 
     @classmethod
     def from_vector(cls, tr, w: np.ndarray, stats: dict, objective: float, wall_time: dict) -> "OCPSolution":
@@ -88,19 +90,13 @@ class OCPSolution(Result):
         Hermite-Simpson: the same construction through their points (the state
         polynomials of those schemes have the same degree).
         """
-        values = self.sample(name)
-        tr = self.transcription
-        scheme = tr.scheme
-        mesh = scheme.mesh_fractions * self.t_final
         times = np.atleast_1d(np.asarray(times, dtype=float))
-        k = np.clip(np.searchsorted(mesh, times, side="right") - 1, 0, scheme.intervals - 1)
-        out = np.empty_like(times)
-        for n, (tk, kk) in enumerate(zip(times, k)):
-            idx = np.asarray(tr.interval_points(kk))     # an hp mesh: each interval its own degree
-            ts, vs = self.t[idx], values[idx]
-            p = len(idx)
-            out[n] = sum(vs[j] * np.prod([(tk - ts[s]) / (ts[j] - ts[s]) for s in range(p) if s != j]) for j in range(p))
-        return out
+        # One matrix for all times (an hp mesh: each interval its own degree), in normalized time;
+        # kept for the last times asked, since a warm start asks for every quantity at the same ones.
+        key, cached = times.tobytes(), self.__dict__.get("_interpolation")
+        if cached is None or cached[0] != key:
+            cached = self.__dict__["_interpolation"] = (key, self.transcription.interpolation_matrix(times / self.t_final))
+        return cached[1] @ self.sample(name)
 
 
     def joint_work(self) -> dict[str, float]:

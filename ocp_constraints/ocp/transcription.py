@@ -125,6 +125,22 @@ class Transcription:
         """The points of interval ``k``, both ends included (the last shared with the next)."""
         return range(int(self.offsets[k]), int(self.offsets[k + 1]) + 1)
 
+    def interpolation_matrix(self, fractions) -> np.ndarray:
+        """``E`` (``len(fractions) x points``) with ``values(fractions) = E @ point_values``: each
+        interval's Lagrange polynomial through its points, at normalized times in ``[0, 1]``."""
+        fractions = np.atleast_1d(np.asarray(fractions, dtype=float))
+        mesh = self.scheme.mesh_fractions
+        k_of = np.clip(np.searchsorted(mesh, fractions, side="right") - 1, 0, self.scheme.intervals - 1)
+        E = np.zeros((len(fractions), self.layout.n_points))
+        for k in np.unique(k_of):
+            rows = np.flatnonzero(k_of == k)
+            idx = np.asarray(self.interval_points(k))
+            nodes, s = self.fractions[idx], fractions[rows]
+            for j in range(len(idx)):
+                others = np.delete(nodes, j)
+                E[rows, idx[j]] = np.prod((s[:, None] - others[None, :]) / (nodes[j] - others[None, :]), axis=1)
+        return E
+
     def _groups(self) -> dict:
         """Intervals sharing one local scheme (one element kind each): ``{label: (scheme, [k, ...])}``."""
         out: dict = {}

@@ -194,7 +194,7 @@ def _drives(traj) -> dict[str, tuple[np.ndarray, np.ndarray]]:
 def run_optimal_control(problem: OptimalControlProblem, scene_name: str, task: str, method,
                         out: str | Path | None = None, ipopt_options: dict | None = None,
                         plots: bool = True, reintegrate: bool = False, starts: int = 1,
-                        seed: int = 0) -> tuple[OCPSolution, dict]:
+                        seed: int = 0, tolerance: float | None = None) -> tuple[OCPSolution, dict]:
     """Solve ``problem`` with the transcription ``method``; write results if ``out`` is given.
 
     ``summary`` carries the work of every joint load (e.g. a motor's energy) and, with
@@ -202,11 +202,14 @@ def run_optimal_control(problem: OptimalControlProblem, scene_name: str, task: s
     ``starts`` > 1 (multi-start, :mod:`~ocp_constraints.ocp.multistart`, drawn with ``seed``) the
     best start is written and ``summary["multistart"]`` lists every start and the local optima.
     A failed solve writes the last iterate with ``"success": false`` and re-raises.
+    ``tolerance``: hp mesh refinement from ``method`` until the estimated error meets it
+    (:mod:`~ocp_constraints.ocp.mesh_refinement`); ``summary["mesh_refinement"]`` has the final
+    mesh, the estimate per quantity and the history.
     """
     folder = RunFolder(out) if out is not None else None
     error: OCPSolveError | None = None
     try:
-        sol = problem.solve(method, ipopt_options, starts=starts, seed=seed)
+        sol = problem.solve(method, ipopt_options, starts=starts, seed=seed, tolerance=tolerance)
     except OCPSolveError as exc:
         if exc.solution is None:     # nothing to write (e.g. every multi-start task failed on its worker)
             raise
@@ -234,6 +237,10 @@ def run_optimal_control(problem: OptimalControlProblem, scene_name: str, task: s
         "inputs": list(problem.model.inputs),
         "software": software_versions(),
     }
+    if getattr(sol, "mesh_refinement", None) is not None:     # tolerance: final mesh, estimate, history
+        summary["mesh_refinement"] = sol.mesh_refinement
+        summary["solver"].update(transcription=sol.transcription.scheme.label, intervals=sol.transcription.scheme.intervals,
+                                 degree=None)
     if getattr(sol, "multistart", None) is not None:      # starts > 1: every start and the local optima found
         summary["multistart"] = sol.multistart
     if reintegrate and error is None:

@@ -1,0 +1,117 @@
+"""A-posteriori error of a collocation solution, per mesh interval and per quantity.
+
+The estimate compares the solution with a *companion*: the same problem solved on the same
+mesh with every interval's Radau degree raised by two (warm-started from the solution, so a
+few IPOPT iterations). Where the solution is smooth, the companion's error is smaller by a
+large factor (Radau of degree ``d`` is of order ``2d - 1`` at the mesh points and about ``d``
+for the multipliers, which are algebraic variables of an index-2 problem), so their
+difference is the solution's error; :data:`SAFETY` multiplies it to cover the companion's
+own share. Both are compared through their collocation polynomials on a grid of
+:data:`SAMPLES_PER_POINT` times per collocation point inside every interval, in normalized
+time (the final time may be free).
+
+Quantities (each its own number, the contract of issue 19):
+
+- ``states``: coordinates and speeds, absolute (SI units: m, rad, m/s, rad/s);
+- ``multipliers``: the multipliers ``lambda`` (the constraint forces and moments of eq. 26),
+  relative to the largest load, ``max |lambda|`` over the companion's samples;
+- ``inputs``: the controls, relative to the largest ``|input|`` (reported, not refined on);
+- ``t_final``: the final time's difference (s), where it is free.
+
+Multipliers and inputs leave out ``t = 0``: Radau has no collocation point there, its inputs
+are extrapolated and ``lambda_0`` follows from the acceleration-level constraint, so its
+error is that of an extrapolation, not of the scheme (the bench reports it apart too).
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+
+SAFETY = 2.0
+SAMPLES_PER_POINT = 2
+QUANTITIES = ("states", "multipliers", "inputs")
+
+
+@dataclass
+class ErrorEstimate:
+    """Estimated error per quantity (largest over the horizon) and per interval.
+
+    ``per_interval[q][k]``: the estimate of quantity ``q`` on interval ``k`` (same units and
+    scaling as ``totals[q]``). ``load_scale`` (the largest ``|lambda|``, N or N m) and
+    ``input_scale`` are the divisors of the relative quantities.
+    """
+
+    totals: dict[str, float]
+    per_interval: dict[str, np.ndarray]
+    load_scale: float
+    input_scale: float
+    worst: dict[str, str] = field(default_factory=dict)
+
+    def as_dict(self) -> dict:
+        return {"estimate": dict(self.totals), "worst": dict(self.worst), "load_scale": self.load_scale,
+                "input_scale": self.input_scale}
+
+
+def sample_grid(transcription, per_point: int = SAMPLES_PER_POINT) -> tuple[np.ndarray, np.ndarray]:
+    """Normalized times in ``[0, 1]`` (``per_point`` per collocation point, evenly in every interval,
+    its ends included) and the interval of each."""
+    mesh = transcription.scheme.mesh_fractions
+    fractions, owner = [], []
+    for k in range(transcription.scheme.intervals):
+        m = per_point * (len(transcription.interval_points(k)) - 1) + 1
+        s = np.linspace(mesh[k], mesh[k + 1], m)
+        fractions.append(s)
+        owner.append(np.full(m, k))
+    return np.concatenate(fractions), np.concatenate(owner)
+
+
+def values_at(solution, fractions: np.ndarray) -> dict[str, np.ndarray]:
+    """States (``nx x n``), multipliers and inputs of ``solution`` at normalized times ``fractions``."""
+    E = solution.transcription.interpolation_matrix(fractions)
+    return {"states": solution.X @ E.T, "multipliers": solution.lam @ E.T, "inputs": solution.inputs @ E.T}
+
+
+def names(solution) -> dict[str, list[str]]:
+    pr = solution.transcription.problem
+    return {"states": pr.model.coordinate_names + pr.model.speed_names,
+            "multipliers": [f"{c}.lambda" for c in solution.transcription.eqs.constraint_names],
+            "inputs": list(pr.model.inputs)}
+
+
+def compare(values: dict[str, np.ndarray], reference: dict[str, np.ndarray], fractions: np.ndarray,
+            owner: np.ndarray, intervals: int, labels: dict[str, list[str]]) -> ErrorEstimate:
+    """Differences of ``values`` from ``reference`` (both as :func:`values_at` gives them) per
+    quantity and interval: states absolute, multipliers and inputs relative to the reference's
+    largest magnitude, ``t = 0`` left out of those two (see the module's notes)."""
+    inner = fractions > 0.0
+    scales = {"states": 1.0}
+    for q in ("multipliers", "inputs"):
+        r = reference[q][:, inner]
+        scales[q] = float(np.abs(r).max()) if r.size and np.abs(r).max() > 0 else 1.0
+    totals, per_interval, worst = {}, {}, {}
+    for q in QUANTITIES:
+        diff = np.abs(values[q] - reference[q]) / scales[q]
+        if q != "states":
+            diff = diff[:, inner]
+        where = owner if q == "states" else owner[inner]
+        pointwise = diff.max(axis=0) if diff.shape[0] else np.zeros(diff.shape[1])
+        per_interval[q] = np.zeros(intervals)
+        np.maximum.at(per_interval[q], where, pointwise)
+        totals[q] = float(pointwise.max()) if pointwise.size else 0.0
+        if diff.size:
+            worst[q] = labels[q][int(diff.max(axis=1).argmax())]
+    return ErrorEstimate(totals, per_interval, scales["multipliers"], scales["inputs"], worst)
+
+
+def estimate_error(solution, companion, safety: float = SAFETY) -> ErrorEstimate:
+    """The error estimate of ``solution`` from ``companion`` (the same mesh, higher degrees):
+    ``safety`` times their difference, per quantity and per interval of ``solution``'s mesh."""
+    fractions, owner = sample_grid(solution.transcription)
+    est = compare(values_at(solution, fractions), values_at(companion, fractions), fractions, owner,
+                  solution.transcription.scheme.intervals, names(solution))
+    est.totals = {q: safety * v for q, v in est.totals.items()}
+    est.per_interval = {q: safety * v for q, v in est.per_interval.items()}
+    if solution.transcription.layout.free_time:
+        est.totals["t_final"] = safety * abs(solution.t_final - companion.t_final)
+    return est
