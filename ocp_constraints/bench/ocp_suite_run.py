@@ -68,15 +68,15 @@ class SuiteProblem:
 
 WALKER_LINKS = [f"{n}.psi" for n in spatial.LINKS]
 PROBLEMS = [
-    SuiteProblem("acrobot", planar.acrobot, minimal.acrobot, "none", (40, 7), (80, 7),
+    SuiteProblem("acrobot", planar.acrobot, minimal.acrobot, "none", (20, 7), (40, 7),
                  _angles(["upper.psi", "lower.psi"]), ["elbow_motor"]),
-    SuiteProblem("cart_double_pendulum", planar.cart_double_pendulum, minimal.cart_double_pendulum, "none", (40, 7),
-                 (80, 7), _angles(["cart.x", "rod1.psi", "rod2.psi"]), ["push"]),
-    SuiteProblem("four_bar", planar.four_bar, minimal.four_bar, "coupler and rocker angles (loop closure)", (80, 7),
-                 (160, 7), _angles(["crank.psi"]), ["motor"]),
+    SuiteProblem("cart_double_pendulum", planar.cart_double_pendulum, minimal.cart_double_pendulum, "none", (20, 7),
+                 (40, 7), _angles(["cart.x", "rod1.psi", "rod2.psi"]), ["push"]),
+    SuiteProblem("four_bar", planar.four_bar, minimal.four_bar, "rocker angle upright (one coordinate)", (20, 7),
+                 (40, 7), _angles(["crank.psi"]), ["motor"]),
     SuiteProblem("rolling_disk", spatial.rolling_disk, minimal3d.rolling_disk, "none", (20, 7), (40, 7)),
     SuiteProblem("quadrotor_load", spatial.quadrotor_load, minimal3d.quadrotor_load, "none", (20, 7), (40, 7)),
-    SuiteProblem("walker", spatial.walker, minimal3d.walker, "none", (20, 7), (80, 7),
+    SuiteProblem("walker", spatial.walker, minimal3d.walker, "none", (20, 7), (40, 7),
                  _angles(WALKER_LINKS, [-1.0] * 5), ["ankle", "hip1", "hip2", "knee1", "knee2"]),
 ]
 
@@ -96,9 +96,16 @@ def _ours(sp: SuiteProblem, N: int, coordinates: str = "maximal") -> tuple[dict,
         return {"success": False, "status": f"{type(exc).__name__}: {exc}"[:200], "iterations": 0,
                 "objective": float("nan"), "solve_s": time.perf_counter() - started,
                 "cpu_s": time.process_time() - cpu, "ipopt_s": float("nan")}, (problem, None)
+    _stop_if_interrupted(sol)
     return {"success": bool(sol.success), "status": sol.status, "iterations": sol.iterations,
             "objective": float(sol.objective), "solve_s": time.perf_counter() - started,
             "cpu_s": time.process_time() - cpu, "ipopt_s": sol.wall_time["solve"]}, (problem, sol)
+
+
+def _stop_if_interrupted(sol) -> None:
+    """Ctrl-C or SIGTERM stops the solve with its last iterate; the suite stops there too."""
+    if str(sol.status).startswith("interrupted"):
+        raise KeyboardInterrupt(f"bench --ocp-suite: {sol.status}")
 
 
 def _rockit(mp, N: int) -> dict:
@@ -121,18 +128,23 @@ def _say(log, what: str, r: dict, N: int) -> None:
         f"{r['solve_s']:.2f} s wall, {r['cpu_s']:.2f} s CPU")
 
 
-def run_problem(sp: SuiteProblem, N: int, runs: int, log=print, fine_mesh: tuple[int, int] | None = None) -> dict:
+def run_problem(sp: SuiteProblem, N: int, runs: int, log=print, fine_mesh: tuple[int, int] | None = None,
+                coordinates: tuple[str, ...] = ("maximal", "joint")) -> dict:
     """One row of the suite's table (see the module docstring). ``fine_mesh``: ``(intervals, degree)``
-    of our fine solve instead of the problem's own, the reference then on twice the intervals."""
+    of our fine solve instead of the problem's own, the reference then on twice the intervals;
+    ``coordinates``: with ``"joint"``, our problem is also solved in joint coordinates."""
     import ocp_constraints as oc
 
     mp = sp.minimal()
-    ours, joint, peer, kept = [], [], [], None
+    ours, joint, peer, kept, kept_joint = [], [], [], None, None
     have_rockit = available("rockit")
     for _ in range(runs):                 # alternate, so all three see the same machine load
         row, kept = _ours(sp, N)
         ours.append(row)
-        joint.append(_ours(sp, N, "joint")[0])
+        # A failed solve is not repeated: its time would be IPOPT's iteration limit, not a median.
+        if "joint" in coordinates and (not joint or joint[-1]["success"]):
+            r, kept_joint = _ours(sp, N, "joint")
+            joint.append(r)
         if have_rockit:
             peer.append(_rockit(mp, N))
     row = {"problem": sp.name, "guess": sp.guess, "N": N}
@@ -141,16 +153,21 @@ def run_problem(sp: SuiteProblem, N: int, runs: int, log=print, fine_mesh: tuple
             r = _median_row(rows)
             _say(log, f"{sp.name}: {prefix}", r, N)
             row.update({f"{prefix}_{k}": v for k, v in r.items() if k != "setting"})
-    problem, coarse = kept
+    # The fine solve in joint coordinates where those solved the coarse problem (several times
+    # faster), else in maximal coordinates; from the coarse solution of the same kind.
+    via_joint = bool(joint) and joint[-1]["success"]
+    problem, coarse = kept_joint if via_joint else kept
     problem = problem or sp.ours()
     Nf, df = fine_mesh or sp.fine
-    started = time.perf_counter()
+    started, cpu = time.perf_counter(), time.process_time()
     try:
         fine = problem.solve(oc.Radau(Nf, degree=df), warm_start=coarse, progress=False)
     except oc.OCPSolveError as exc:
         fine = exc.solution
-    row.update(fine_setting=f"Radau{df} N={Nf}", fine_success=fine.success, fine_iterations=fine.iterations,
-               fine_objective=fine.objective, fine_s=time.perf_counter() - started)
+    _stop_if_interrupted(fine)
+    row.update(fine_setting=f"Radau{df} N={Nf}{', joint coordinates' if via_joint else ''}", fine_success=fine.success,
+               fine_iterations=fine.iterations, fine_objective=fine.objective, fine_s=time.perf_counter() - started,
+               fine_cpu_s=time.process_time() - cpu)
     Nr, dr = (2 * fine_mesh[0], fine_mesh[1]) if fine_mesh else sp.reference
     start = None if sp.states is None else (lambda t: sp.states(fine, sp.inputs, t))
     ref = collocate(mp, Nr, dr, start=start)
@@ -170,7 +187,7 @@ def run_problem(sp: SuiteProblem, N: int, runs: int, log=print, fine_mesh: tuple
 
 RUN_FIELDS = ["success", "status", "iterations", "objective", "solve_s", "cpu_s", "ipopt_s"]
 COLUMNS = (["problem", "guess", "N"] + [f"{w}_{k}" for w in ("ours", "joint", "rockit") for k in RUN_FIELDS]
-           + ["fine_setting", "fine_success", "fine_iterations", "fine_objective", "fine_s", "reference_setting",
+           + ["fine_setting", "fine_success", "fine_iterations", "fine_objective", "fine_s", "fine_cpu_s", "reference_setting",
               "reference_success", "reference_objective", "reference_mesh_error", "agreement",
               "reference_from_guess_objective", "reference_from_guess_success"])
 
@@ -221,10 +238,10 @@ SUITE_END = "<!-- end of ocp suite -->"
 
 
 def run_suite(out, runs: int = 3, N: int = 20, only: list[str] | None = None, readme=None, log=print,
-              fine_mesh: tuple[int, int] | None = None) -> list[dict]:
+              fine_mesh: tuple[int, int] | None = None, coordinates: tuple[str, ...] = ("maximal", "joint")) -> list[dict]:
     """Run the suite (or the problems ``only``), write ``ocp_suite.csv`` and ``ocp_suite.md`` into ``out``
     and, with ``readme``, the table between the README's suite markers. ``N``: intervals of the timed
-    solves; ``fine_mesh``: see :func:`run_problem`."""
+    solves; ``fine_mesh``, ``coordinates``: see :func:`run_problem`."""
     from pathlib import Path
 
     from ..errors import SceneError
@@ -246,7 +263,7 @@ def run_suite(out, runs: int = 3, N: int = 20, only: list[str] | None = None, re
         if only and sp.name not in only:
             continue
         log(f"== {sp.name}")
-        rows.append(run_problem(sp, N, runs, log, fine_mesh))
+        rows.append(run_problem(sp, N, runs, log, fine_mesh, coordinates))
     m = machine()
     minutes = (time.perf_counter() - started) / 60
     text = (f"Regenerated by `ocp-constraints bench --ocp-suite{' --readme ' + str(readme) if readme else ''}` "

@@ -13,7 +13,7 @@ def cli_bench(args) -> int:
         if args.runs < 1 or args.ocp_n < 1:
             raise SceneError(f"bench --ocp-suite: --runs and --ocp-n must be at least 1, got {args.runs} and {args.ocp_n}")
         rows = run_suite(args.out, runs=args.runs, N=args.ocp_n, only=args.only, readme=args.readme,
-                         fine_mesh=tuple(args.ocp_fine) if args.ocp_fine else None)
+                         fine_mesh=tuple(args.ocp_fine) if args.ocp_fine else None, coordinates=tuple(args.ocp_coordinates))
         return 0 if all(r["ours_success"] and r["fine_success"] for r in rows) else 1
     from ..bench.report import run_bench
 
@@ -40,6 +40,9 @@ def add_bench_parser(subparsers) -> None:
                         "references; ocp_suite.csv and .md into --out (--runs: here at least 1)")
     b.add_argument("--only", nargs="+", metavar="NAME", help="with --ocp-suite: only these problems")
     b.add_argument("--ocp-n", type=int, default=20, metavar="N", help="with --ocp-suite: intervals of the timed solves (default 20)")
+    b.add_argument("--ocp-coordinates", nargs="+", choices=("maximal", "joint"), default=["maximal", "joint"],
+                   metavar="KIND", help="with --ocp-suite: our runs: maximal, and with joint also in joint coordinates "
+                                        "(default both; maximal always runs)")
     b.add_argument("--ocp-fine", type=int, nargs=2, metavar=("N", "DEGREE"),
                    help="with --ocp-suite: our fine mesh for every problem (default: each problem's own), the "
                         "reference on 2N intervals")
