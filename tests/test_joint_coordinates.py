@@ -177,3 +177,47 @@ def test_the_solve_command_takes_joint_coordinates_and_writes_the_bodies_results
     header = (tmp_path / "loads.csv").read_text().splitlines()[0].split(",")
     assert "hinge.v2.lambda" in header and "hinge.F_y" in header
     assert max(summary["max_constraint_residual"].values()) <= 1e-12
+
+
+def test_an_imported_robot_moves_in_its_urdf_joint_angles(tmp_path):
+    # URDF links are quaternion bodies: placed by the composed unit quaternion. The joint
+    # coordinates are the URDF's joint angles, checked against the importer's own forward
+    # kinematics (robot.body_states, mechanics/urdf_robot.py), a separate derivation.
+    pytest.importorskip("yourdfpy", reason="the URDF parser is the optional extra 'urdf'")
+    link = ('<link name="{0}"><inertial><origin xyz="0 0 -0.25"/><mass value="1"/><inertia ixx="0.02" iyy="0.02" '
+            'izz="0.001" ixy="0" ixz="0" iyz="0"/></inertial></link>')
+    joint = ('<joint name="{0}" type="revolute"><parent link="{1}"/><child link="{2}"/><origin xyz="{3}"/>'
+             '<axis xyz="{4}"/><limit effort="30" lower="-3" upper="3" velocity="10"/></joint>')
+    path = tmp_path / "arm.urdf"
+    path.write_text('<?xml version="1.0"?>\n<robot name="arm"><link name="world"/>' + link.format("l1") + link.format("l2")
+                    + joint.format("j1", "world", "l1", "0 0 1", "0 1 0") + joint.format("j2", "l1", "l2", "0 0 -0.5", "1 0 1")
+                    + "</robot>\n")
+    robot = oc.load_urdf(path)
+    r = JointCoordinates(oc.SystemEquations(robot.model))
+    assert r.coordinate_names == ["j1.angle", "j2.angle"] and r.nc == 0
+    q, qd, qdd = np.array([[0.7, -2.4]]), np.array([[0.3, 1.1]]), np.array([[0.2, -0.5]])
+    expected = robot.body_states(q, qd, qdd)
+    got = r.maximal_function(q.ravel(), qd.ravel(), qdd.ravel(), [], [0.0, 0.0], 0.0)[:3]
+    for a, b in zip(got, expected):
+        assert np.allclose(np.asarray(a).ravel(), np.asarray(b).ravel(), atol=1e-14)
+    # Rest to rest, then with the first joint's force bounded below the free optimum's peak: active.
+    qa, qb = np.array([0.0, 0.0]), np.array([1.0, -0.5])
+
+    def solve(bound):
+        problem = oc.OptimalControlProblem(robot.model, t_final=1.0, coordinates="joint")
+        robot.set_boundary(problem, "initial", qa)
+        robot.set_boundary(problem, "final", qb)
+        robot.set_guess(problem, lambda t: qa + (qb - qa) * np.clip(t, 0, 1)[:, None])
+        robot.apply_limits(problem)
+        problem.minimize_effort()
+        if bound is not None:
+            F = problem.joint_force("j1")
+            problem.subject_to(ca.dot(F, F), -np.inf, bound**2, "j1 force")
+        sol = problem.solve(oc.Radau(10, degree=3))
+        loads = sol.loads()
+        return sol, np.sqrt(sum(loads[f"j1.F_{a}"] ** 2 for a in "xyz")).max()
+
+    free, peak = solve(None)
+    bounded, peak_b = solve(0.95 * peak)
+    assert peak_b == pytest.approx(0.95 * peak, rel=1e-8) and bounded.objective > free.objective
+    assert max(bounded.residuals()) <= 1e-12

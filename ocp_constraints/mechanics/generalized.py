@@ -23,7 +23,8 @@ joint's rows ``G_j``, exact because the residual lies in the range of ``G_j^T``)
 Euler-angle bodies: the angles are recovered from the rotation ``Q`` and unwrapped about
 their linearization at ``p = 0``, so an angle that is linear in the joint coordinates (a
 hinge about the sequence's first or last axis) is exactly that, with no branch cut. A
-quaternion body on a joint keeps its own coordinates (the joint stays constraints).
+quaternion body's quaternion is the product of its base's, the joint's ``(cos s/2, sin s/2 n)``
+and the fixed ``R0``'s: unit and continuous in the joint coordinates.
 """
 from __future__ import annotations
 
@@ -35,7 +36,7 @@ import numpy as np
 from ..errors import ModelError
 from .equations import SystemEquations
 from .joint_maps import KINDS, axis_rotation
-from .rotations import EulerSequence
+from .rotations import EulerSequence, quaternion_from_rotation
 
 
 class JointCoordinates:
@@ -86,7 +87,7 @@ class JointCoordinates:
             if m is None:
                 q.append(b.q), u.append(b.u), qdot.append(b.coordinate_rates())
                 names += b.coordinate_names
-                pose[b.name] = (b.xbar, b.Q, b.vbar, b.omega, b.q)
+                pose[b.name] = (b.xbar, b.Q, b.vbar, b.omega, _own_quaternion(b))
                 continue
             n = len(KINDS[m.kind])
             s, sd = ca.SX.sym(f"{m.joint}.s", n), ca.SX.sym(f"{m.joint}.s_dot", n)
@@ -100,8 +101,13 @@ class JointCoordinates:
         reference = self.reference_point()
         qb, ub = [], []
         for b in self.full.bodies:
-            xbar, Q, vbar, omega, own = pose[b.name]
-            qb.append(ca.vertcat(xbar, _euler_angles(b, Q, self.q, reference)) if b.name in self.maps else own)
+            xbar, Q, vbar, omega, quaternion = pose[b.name]
+            if b.name not in self.maps:
+                qb.append(b.q)
+            elif isinstance(b.rotation, EulerSequence):
+                qb.append(ca.vertcat(xbar, _euler_angles(b, Q, self.q, reference)))
+            else:       # the composed unit quaternion: continuous in the joint coordinates, no branch
+                qb.append(ca.vertcat(xbar, quaternion))
             ub.append(ca.vertcat(vbar, omega))
         self.q_full, self.u_full = ca.vertcat(*qb), ca.vertcat(*ub)
 
@@ -191,15 +197,15 @@ class JointCoordinates:
 
 
 def _choose_maps(eqs: SystemEquations) -> dict:
-    """Body name -> the joint map that places it: its first recorded joint whose base is placed,
-    whose points are fixed in their bodies and whose body has Euler angles. Bodies left over (and
-    the other joints of a closed loop) keep their coordinates and constraints."""
+    """Body name -> the joint map that places it: its first recorded joint whose base is placed and
+    whose points are fixed in their bodies. Bodies left over (and the other joints of a closed
+    loop) keep their coordinates and constraints."""
     maps = [m for m in getattr(eqs.model, "joint_maps", {}).values() if m is not None]
     present = set(eqs.constraint_names)
 
     def usable(m) -> bool:
         b = m.point.body
-        return (isinstance(b.rotation, EulerSequence) and not ca.depends_on(m.point.offset, b.q)
+        return (not ca.depends_on(m.point.offset, b.q)
                 and (m.other is None or not ca.depends_on(m.other.offset, m.other.body.q))
                 and all(c in present for c in m.constraints))
 
@@ -237,8 +243,9 @@ def _child_pose(m, pose: dict, s: ca.SX, sd: ca.SX) -> tuple:
     """``xbar, Q, vbar, omega`` of a joint's body from its base's pose and ``s, s'`` (the map's kind)."""
     if m.other is None:
         Q2, x2, w2, v2 = ca.SX.eye(3), ca.SX(ca.DM(m.anchor)), ca.SX.zeros(3, 1), ca.SX.zeros(3, 1)
+        q2 = ca.SX(ca.DM([1.0, 0.0, 0.0, 0.0]))
     else:
-        xb, Q2, vb, w2, _ = pose[m.other.body.name]
+        xb, Q2, vb, w2, q2 = pose[m.other.body.name]
         x2 = xb + Q2 @ ca.evalf(m.other.offset)
         v2 = vb + ca.cross(w2, x2 - xb)
     d = Q2 @ ca.DM(m.axis)
@@ -251,9 +258,34 @@ def _child_pose(m, pose: dict, s: ca.SX, sd: ca.SX) -> tuple:
         vc = v2 + ca.cross(w2, xc - x2) + d * sd[0]
     else:
         Q1, w1, xc, vc = Q2 @ R0, w2, x2, v2
+    # The body's unit quaternion q_2 (x) q(n, s) (x) q(R0) (Hamilton products: Q(a (x) b) = Q(a) Q(b)).
+    turn = _axis_quaternion(m.axis, s[0]) if m.kind == "revolute" else ca.SX(ca.DM([1.0, 0.0, 0.0, 0.0]))
+    quaternion = _quaternion_product(_quaternion_product(q2, turn), ca.SX(ca.DM(quaternion_from_rotation(m.R0))))
     xbar = xc - Q1 @ ca.evalf(m.point.offset)
     vbar = vc + ca.cross(w1, xbar - xc)
-    return xbar, Q1, vbar, w1, None
+    return xbar, Q1, vbar, w1, quaternion
+
+
+def _quaternion_product(a, b) -> ca.SX:
+    """Hamilton product ``a (x) b`` of ``(w, x, y, z)`` quaternions."""
+    return ca.vertcat(a[0] * b[0] - ca.dot(a[1:4], b[1:4]), a[0] * b[1:4] + b[0] * a[1:4] + ca.cross(a[1:4], b[1:4]))
+
+
+def _axis_quaternion(n, s) -> ca.SX:
+    """The unit quaternion of ``R(n, s)``: ``(cos s/2, sin s/2 n)``."""
+    return ca.vertcat(ca.cos(s / 2), ca.sin(s / 2) * ca.DM(np.asarray(n, float).reshape(3, 1)))
+
+
+def _own_quaternion(body) -> ca.SX:
+    """A body's unit quaternion from its own coordinates (Euler angles or a quaternion, normalized)."""
+    r = body.rotation_parameters
+    if not isinstance(body.rotation, EulerSequence):
+        return r / ca.norm_2(r)
+    out = ca.SX(ca.DM([1.0, 0.0, 0.0, 0.0]))
+    for k in range(3):
+        axis = np.eye(3)[int(body.rotation.axes[k]) - 1]
+        out = _quaternion_product(out, _axis_quaternion(axis, r[k]))
+    return out
 
 
 def euler_from_rotation(axes: str, Q) -> list:
