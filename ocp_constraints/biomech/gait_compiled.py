@@ -40,6 +40,7 @@ FORMAT = 1
 _PATH = "{osim_path}"        # the model file's path in stored warnings (the same model may sit anywhere)
 #: modules whose source decides the functions: an edit of any of them is a new cache key
 _SOURCES = ("biomech/gait_compiled.py", "biomech/gait_model.py", "biomech/osim_model.py", "biomech/osim_functions.py",
+            "biomech/osim_kinematics.py",
             "dynamics/inverse.py", "mechanics")
 _MEMO: dict[str, "GaitFunctions"] = {}      # per process: a model's functions are loaded once
 #: "auto" compiles from this many frames in one call on (JW, 37,500 operations a frame, loaded 2-core

@@ -182,52 +182,24 @@ class OsimModel:
         return X
 
     def kinematic_expressions(self, p, pd, pdd, bodies: list[str]) -> dict[str, list]:
-        """Per body of ``bodies`` (SX, ground frame): ``R`` (3x3), origin ``x``, ``xbar``, ``vbar``,
-        ``omega``, ``abar``, ``alpha`` for coordinates ``p`` and their rates ``pd``, ``pdd``.
+        """Per body: ``R``, ``x``, ``xbar``, ``vbar``, ``omega``, ``abar``, ``alpha`` (SX, ground frame),
+        recursive from the ground (:func:`.osim_kinematics.kinematic_expressions`)."""
+        from .osim_kinematics import kinematic_expressions
 
-        Derivatives by CasADi AD (``omega = vee(R' R^T)``, rates by ``jtimes`` over ``(p, pd)``).
-        """
-        names = self.coordinate_names
-        X = self.poses({n: p[i] for i, n in enumerate(names)})
-        nb = len(bodies)
-        R = [X[b][0] for b in bodies]
-        x = [X[b][1] for b in bodies]
-        xbar = [x[k] + R[k] @ ca.DM(self.bodies[b].com) for k, b in enumerate(bodies)]
-        # one forward sweep for all bodies (a sweep per body would differentiate the shared
-        # inboard chain once per body: 81,000 instead of 21,000 operations for the JW model)
-        S = ca.vertcat(*[ca.vertcat(ca.vec(R[k]), xbar[k]) for k in range(nb)])
-        Sd = ca.jtimes(S, p, pd)
-        Sdd = ca.jtimes(Sd, ca.vertcat(p, pd), ca.vertcat(pd, pdd))
-        out = {"R": R, "x": x, "xbar": xbar, "vbar": [], "omega": [], "abar": [], "alpha": []}
-        for k in range(nb):
-            Rd, Rdd = ca.reshape(Sd[12 * k:12 * k + 9], 3, 3), ca.reshape(Sdd[12 * k:12 * k + 9], 3, 3)
-            W = Rd @ R[k].T                     # omega^ = R' R^T
-            Wd = Rdd @ R[k].T                   # (omega')^ = skew part of R'' R^T (R' R'^T is symmetric)
-            out["omega"].append(ca.vertcat(W[2, 1], W[0, 2], W[1, 0]))
-            out["alpha"].append(0.5 * ca.vertcat(Wd[2, 1] - Wd[1, 2], Wd[0, 2] - Wd[2, 0], Wd[1, 0] - Wd[0, 1]))
-            out["vbar"].append(Sd[12 * k + 9:12 * k + 12])
-            out["abar"].append(Sdd[12 * k + 9:12 * k + 12])
-        return out
+        return kinematic_expressions(self, p, pd, pdd, bodies)
+
+    def kinematics_by_ad(self, p, pd, pdd, bodies: list[str]) -> dict[str, list]:
+        """As :meth:`kinematic_expressions`, by AD of the poses (:func:`.osim_kinematics.kinematics_by_ad`)."""
+        from .osim_kinematics import kinematics_by_ad
+
+        return kinematics_by_ad(self, p, pd, pdd, bodies)
 
     def kinematics_function(self, bodies: list[str] | None = None) -> ca.Function:
-        """``(p, pdot, pddot) -> (R, xbar, vbar, omega, abar, alpha, J)`` for ``bodies``.
+        """``(p, pdot, pddot) -> (R, xbar, vbar, omega, abar, alpha, J)`` for ``bodies``
+        (:func:`.osim_kinematics.kinematics_function`; ``J``: paper eq. 39)."""
+        from .osim_kinematics import kinematics_function
 
-        Per body (stacked in the given order, ground frame): ``R`` (3x3, column major
-        into 9 rows), ``xbar`` centre of mass (m), ``vbar`` (m/s), ``omega`` (rad/s),
-        their rates, and ``J = d(vbar, omega)/d(pdot)`` (6 n_bodies x n_coordinates),
-        the velocity Jacobian of paper eq. (39). Derivatives by CasADi AD:
-        ``omega = vee(R' R^T)``.
-        """
-        names = self.coordinate_names
-        bodies = bodies or list(self.bodies)
-        p, pd, pdd = (ca.SX.sym(s, len(names)) for s in ("p", "pd", "pdd"))
-        K = self.kinematic_expressions(p, pd, pdd, bodies)
-        u = ca.vertcat(*[ca.vertcat(K["vbar"][i], K["omega"][i]) for i in range(len(bodies))])
-        J = ca.jacobian(u, pd)
-        return ca.Function("osim_kinematics", [p, pd, pdd],
-                           [ca.vertcat(*[ca.vec(R) for R in K["R"]])] + [ca.vertcat(*K[k]) for k in
-                                                                         ("xbar", "vbar", "omega", "abar", "alpha")] + [J],
-                           ["p", "pdot", "pddot"], ["R", "xbar", "vbar", "omega", "abar", "alpha", "J"])
+        return kinematics_function(self, bodies)
 
 
 # -- parsing ------------------------------------------------------------------------------------
