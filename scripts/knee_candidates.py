@@ -70,7 +70,7 @@ def solve(Qc, R, A, F0, power=2, reserve_weights=None, contact_weight=0.0, scale
     nres, nx = len(RESERVED), nm + 5 + len(RESERVED)
     w = np.ones(nres) if reserve_weights is None else np.asarray(reserve_weights, float)
     Bn = np.zeros((N, nr, nx))
-    Bn[:, :, :nm] = R * F0[None, None, :]
+    Bn[:, :, :nm] = R * np.broadcast_to(np.asarray(F0, float), (N, nm))[:, None, :]   # per muscle or frame x muscle
     Bn[:, :, nm:nm + 5] = A.transpose(0, 2, 1) * scale
     Bn[:, :nres, nm + 5:] = np.eye(nres)
     n, i, j = np.nonzero(Bn)
@@ -151,6 +151,14 @@ def main(out_dir: Path):
     params = muscle_parameters(MODEL, mus)
     volume = np.array([params[m].max_isometric_force * params[m].optimal_fiber_length for m in mus])
     volume /= volume.mean()             # C9: V_m ~ F0 l_opt (Happee & van der Helm 1995), mean weight 1
+    from ocp_constraints.biomech.knee_hill import hill_forces, scale_lengths   # C11: Hill active force only
+    from ocp_constraints.biomech.knee_static import muscle_kinematics
+
+    Lmt, Vmt = muscle_kinematics(gait, paths)
+    l_opt, l_s, alpha0 = (np.array([getattr(params[m], k) for m in mus]) for k in
+                          ("optimal_fiber_length", "tendon_slack_length", "pennation_angle"))
+    _, l_opt, l_s = scale_lengths(np.asarray(paths.unit_length(paths.q_vector({}))).ravel(), l_opt, l_s, alpha0)
+    hill_active = hill_forces(Lmt, Vmt, F0, l_opt, l_s, alpha0).active
     cheap_hip = np.ones(len(RESERVED))
     cheap_hip[:3] = 1e-3
     rows = [("C0", "baseline: ideal muscles, sum a^2, reserves 1 N m^-2, no passive hip moment", {}),
@@ -162,7 +170,9 @@ def main(out_dir: Path):
             ("C5", "passive hip flexion moment, Riener & Edrich 1999 (first round's model)", {"Q": Qp}),
             ("C7", "passive hip, knee and ankle moments, Riener & Edrich 1999 (preregistered, adopted)", {"Q": Q7}),
             ("C9", "C7 with volume-weighted effort sum V a^2, Happee & van der Helm 1995 (reported only)",
-             {"Q": Q7, "activation_weights": volume})]
+             {"Q": Q7, "activation_weights": volume}),
+            ("C11", "C7 with Hill active force-length-velocity (rigid tendon), no fibre passive force (reported only)",
+             {"Q": Q7, "F0": hill_active})]
     arms = opensim_arms(gait, mus)
     if arms is not None:
         Rg, Ra = R.copy(), R.copy()
@@ -180,8 +190,8 @@ def main(out_dir: Path):
     results = {}
     for key, text, opt in rows:
         opt = dict(opt)
-        q, r_ = opt.pop("Q", Qc), opt.pop("R", R)
-        med, lat, res = solve(q, r_, A, F0, **opt)
+        q, r_, f0 = opt.pop("Q", Qc), opt.pop("R", R), opt.pop("F0", F0)
+        med, lat, res = solve(q, r_, A, f0, **opt)
         results[key] = {"change": text, **metrics(gait.t, med, lat, res, meas)}
         print(key, json.dumps({k: v for k, v in results[key].items() if k != "change"})[:200], flush=True)
     out_dir.mkdir(parents=True, exist_ok=True)
