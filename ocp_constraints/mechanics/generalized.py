@@ -79,7 +79,7 @@ class JointCoordinates:
     # -- poses -----------------------------------------------------------------------------
     def _build_poses(self) -> None:
         """Every body's ``xbar, Q, vbar, omega`` as expressions of the joint coordinates, parents first."""
-        q, u, qdot, names = [], [], [], []
+        q, u, qdot, names, speed_names = [], [], [], [], []
         pose: dict[str, tuple] = {}
         self.joint_symbols: dict[str, tuple[ca.SX, ca.SX]] = {}
         for b in _parents_first(self.full.bodies, self.maps):
@@ -87,6 +87,7 @@ class JointCoordinates:
             if m is None:
                 q.append(b.q), u.append(b.u), qdot.append(b.coordinate_rates())
                 names += b.coordinate_names
+                speed_names += b.speed_names
                 pose[b.name] = (b.xbar, b.Q, b.vbar, b.omega, _own_quaternion(b))
                 continue
             n = len(KINDS[m.kind])
@@ -94,10 +95,11 @@ class JointCoordinates:
             self.joint_symbols[b.name] = (s, sd)
             q.append(s), u.append(sd), qdot.append(sd)
             names += m.coordinate_names
+            speed_names += [f"{n}_dot" for n in m.coordinate_names]
             pose[b.name] = _child_pose(m, pose, s, sd)
         self.q, self.u, self.qdot = ca.vertcat(*q), ca.vertcat(*u), ca.vertcat(*qdot)
         self.coordinate_names = names
-        self.speed_names = [f"{n}_dot" for n in names]
+        self.speed_names = speed_names
         reference = self.reference_point()
         qb, ub = [], []
         for b in self.full.bodies:

@@ -26,6 +26,7 @@ import numpy as np
 
 from ..errors import ModelError, OCPSolveError
 from ..mechanics.generalized import JointCoordinates
+from .bounds import _keep_away_from_euler_singularities
 from .joint_guess import JointGuess
 from .solution import OCPSolution
 from .transcription import Transcription
@@ -64,12 +65,21 @@ class ReducedProblem:
         return self.translate(self.original.quantity(name))
 
 
+def transcribe_joint(problem, scheme) -> Transcription:
+    """The joint-coordinate NLP of ``problem``; where no body hangs on a joint with a known
+    parameterization, nothing changes and this is the maximal form's (the same NLP, the same start)."""
+    reduced = JointCoordinates(problem.eqs)
+    if not reduced.maps:
+        return Transcription(problem, scheme)
+    return JointTranscription(problem, scheme, reduced)
+
+
 class JointTranscription(Transcription):
     """The NLP of a problem in joint coordinates; solutions come back in the bodies' coordinates."""
 
-    def __init__(self, problem, scheme):
+    def __init__(self, problem, scheme, reduced: JointCoordinates | None = None):
         self.user_problem = problem
-        self.reduced = JointCoordinates(problem.eqs)
+        self.reduced = JointCoordinates(problem.eqs) if reduced is None else reduced
         super().__init__(ReducedProblem(problem, self.reduced), scheme)
 
     # -- bounds ----------------------------------------------------------------------------------
@@ -88,6 +98,11 @@ class JointTranscription(Transcription):
                                  f"for rates")
         if lay.free_time:
             lo[5][:], hi[5][:] = pr.t_final_bounds
+        # A body on no mapped joint keeps its Euler angles: the same bands off their singularities.
+        free = [b for b in self.reduced.bodies if b.name not in self.reduced.maps]
+        names = self.reduced.coordinate_names + self.reduced.speed_names
+        view = SimpleNamespace(layout=lay, eqs=SimpleNamespace(bodies=free), problem=pr)
+        _keep_away_from_euler_singularities(view, lo[0], hi[0], names, x0[: lay.nx])
         return np.concatenate(lo), np.concatenate(hi)
 
     # -- guesses ---------------------------------------------------------------------------------

@@ -260,7 +260,7 @@ class OptimalControlProblem:
         if self.coordinates not in ("maximal", "joint"):
             raise ModelError(f"coordinates must be 'maximal' or 'joint', got {self.coordinates!r}")
         if self.coordinates == "joint":
-            from .joint_transcription import JointTranscription as transcribe
+            from .joint_transcription import transcribe_joint as transcribe
 
         key = (method.label, method.intervals, None if method.mesh is None else tuple(method.mesh),
                getattr(method, "degrees", None), self.structure_key())
