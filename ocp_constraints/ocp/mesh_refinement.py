@@ -195,7 +195,20 @@ def solve_to_tolerance(problem, tolerance, method=None, ipopt_options: dict | No
             record["message"] = (f"estimate still above {tol:g} after {r} refinements (states "
                                  f"{est.totals['states']:.1e}, multipliers {est.totals['multipliers']:.1e}); "
                                  f"raise max_refinements or accept a larger tolerance")
+            mesh = scheme.mesh_fractions
+            record["rough_intervals"] = [[float(a), float(b)] for a, b, q in zip(mesh[:-1], mesh[1:], ratio)
+                                         if q > 1.0 and (parents or {}).get(_ends(a, b), np.inf) < 10.0 * q]
+            if record["rough_intervals"]:
+                spots = ", ".join(f"{a:.4g}-{b:.4g}" for a, b in record["rough_intervals"][:4])
+                record["message"] += (f"; the estimate stays above it on intervals that refinement does not improve "
+                                      f"(a switch: inputs and multipliers jump there), at fractions {spots} of the horizon")
             break
+        # Rough intervals (see refine): where the solution switches; a jump of the inputs and
+        # multipliers there keeps their largest error near the jump's size at any mesh.
+        mesh = scheme.mesh_fractions
+        rough = [[float(a), float(b)] for a, b, q in zip(mesh[:-1], mesh[1:], ratio)
+                 if q > 1.0 and (parents or {}).get(_ends(a, b), np.inf) < 10.0 * q]
+        entry["rough_intervals"] = rough
         new, parents = refine(scheme, ratio, parents)
         if new == scheme:
             record["message"] = (f"estimate above {tol:g} on intervals that cannot be refined further "

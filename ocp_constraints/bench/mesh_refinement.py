@@ -1,0 +1,238 @@
+"""Benchmark of accuracy on request (issue 19): hp mesh refinement against fixed meshes.
+
+    python -m ocp_constraints.bench.mesh_refinement [--runs 3] [--out results/bench/mesh_refinement.md] [--quick]
+
+1. Pendulum swing-up, tolerances 1e-4, 1e-6, 1e-8: the refined solve's true error against the
+   Pontryagin extremal (:func:`~ocp_constraints.bench.references.swing_up_reference`, shooting and
+   DOP853: an independent method), its estimate, and its total time (every refinement's solves,
+   medians of ``runs``), beside a fixed-mesh sweep of Radau degree x intervals in the same run:
+   the cheapest fixed mesh whose true error meets the tolerance.
+2. Minimum-time swing-up (|tau| <= 5 N m, bang-bang) and the rolling-disk drive (friction cone
+   switching): the final hp mesh (where its intervals are) against uniform Radau meshes of the
+   same accuracy. These have no closed-form reference: errors are against fine solutions on other
+   meshes (named in the table), so they measure the discretization, not the equations.
+
+Errors are measured the same way for every row (:func:`~ocp_constraints.ocp.error_estimate.compare`):
+states (coordinates and speeds) absolute in SI units, multipliers relative to the reference's
+largest load, both the largest over a grid of 4 times per collocation point in normalized time,
+multipliers without ``t = 0``. Times: wall (``time.perf_counter``) and CPU (``time.process_time``)
+of the whole ``problem.solve`` call, transcription and guesses included. Benchmarks measure this
+machine; they are not tests.
+"""
+from __future__ import annotations
+
+import argparse
+import statistics
+import time
+from pathlib import Path
+
+import numpy as np
+
+from ..errors import OCPSolveError
+from ..ocp.error_estimate import compare, names, sample_grid, values_at
+from ..ocp.problem import OptimalControlProblem
+from ..ocp.schemes import Radau
+from ..scenes.registry import build_task
+from .references import swing_up_reference
+
+TOLERANCES = (1e-4, 1e-6, 1e-8)
+FIXED_DEGREES = (3, 4, 5, 6, 7, 8, 9)
+FIXED_INTERVALS = (5, 10, 20, 40, 80, 160)
+MAX_FIXED_POINTS = 700
+
+
+def _timed(fn):
+    wall, cpu = time.perf_counter(), time.process_time()
+    out = fn()
+    return out, time.perf_counter() - wall, time.process_time() - cpu
+
+
+def _median_run(fn, runs: int):
+    results = [_timed(fn) for _ in range(runs)]
+    return results[-1][0], statistics.median(r[1] for r in results), statistics.median(r[2] for r in results)
+
+
+class SwingUpTruth:
+    """The swing-up's states, hinge multipliers and torque from the Pontryagin extremal (all 12 states
+    from ``psi``: rod centre ``L/2 (sin psi, -cos psi, 0)``, ``theta = phi = 0``, ``omega = psi' E3``)."""
+
+    def __init__(self):
+        self.ref = swing_up_reference()
+
+    def __call__(self, sol, fractions: np.ndarray) -> dict:
+        t = fractions * sol.t_final
+        psi, w = self.ref.states(t)
+        h, z = self.ref.L / 2, 0 * t
+        X = np.array([h * np.sin(psi), -h * np.cos(psi), z, psi, z, z, h * w * np.cos(psi), h * w * np.sin(psi), z, z, z, w])
+        lam = self.ref.multipliers(t)
+        return {"states": X, "multipliers": np.array([lam[k] for k in names(sol)["multipliers"]]),
+                "inputs": self.ref.torque(t)[None, :]}
+
+
+def true_error(sol, truth) -> dict[str, float]:
+    """Errors of ``sol`` against ``truth(sol, fractions)`` (a reference's values), per quantity."""
+    fractions, owner = sample_grid(sol.transcription, 4)
+    est = compare(values_at(sol, fractions), truth(sol, fractions), fractions, owner, sol.transcription.scheme.intervals,
+                  names(sol))
+    return est.totals
+
+
+def _gated(errors: dict) -> float:
+    return max(errors["states"], errors["multipliers"])
+
+
+def minimum_time_swing_up() -> OptimalControlProblem:
+    """The swing-up with free final time in [0.5, 4] s, |torque| <= 5 N m, minimum time (bang-bang)."""
+    _, base = build_task("pendulum", "swing_up")
+    problem = OptimalControlProblem(base.model, t_final=2.0, t_final_bounds=(0.5, 4.0))
+    problem.bound("motor", -5.0, 5.0)
+    problem.initial({"rod.psi": 0.0, "rod.psi_dot": 0.0})
+    problem.final({"rod.psi": np.pi, "rod.psi_dot": 0.0})
+    problem.minimize_final_time()
+    problem.set_guess("rod.psi", base.guess["rod.psi"])
+    return problem
+
+
+def swing_up_table(runs: int, log=print) -> tuple[list[dict], list[dict]]:
+    truth = SwingUpTruth()
+    fixed = []
+    for d in FIXED_DEGREES:
+        for N in FIXED_INTERVALS:
+            if N * d + 1 > MAX_FIXED_POINTS:
+                continue
+            try:
+                sol, wall, cpu = _median_run(lambda: build_task("pendulum", "swing_up")[1].solve(Radau(N, degree=d)), runs)
+            except OCPSolveError as exc:
+                log(f"  fixed radau{d} N={N}: {exc}")
+                continue
+            err = true_error(sol, truth)
+            fixed.append({"setting": f"radau{d} N={N}", "points": N * d + 1, "wall_s": wall, "cpu_s": cpu, "error": _gated(err),
+                          "objective": sol.objective, **err})
+            log(f"  fixed radau{d} N={N}: error {_gated(err):.1e}  {wall:.2f} s wall {cpu:.2f} s cpu")
+    rows = []
+    for tol in TOLERANCES:
+        sol, wall, cpu = _median_run(lambda: build_task("pendulum", "swing_up")[1].solve(tolerance=tol), runs)
+        mr, err = sol.mesh_refinement, true_error(sol, truth)
+        ok = [f for f in fixed if f["error"] <= tol]
+        best = min(ok, key=lambda f: f["wall_s"]) if ok else None
+        best_cpu = min(ok, key=lambda f: f["cpu_s"]) if ok else None
+        rows.append({"tolerance": tol, "met_estimate": mr["met"], "true": err, "estimate": mr["estimate"],
+                     "refinements": mr["refinements"], "intervals": len(mr["degrees"]), "points": sol.transcription.scheme.point_count,
+                     "degrees": f"{min(mr['degrees'])}-{max(mr['degrees'])}", "wall_s": wall, "cpu_s": cpu, "best": best,
+                     "best_cpu": best_cpu})
+        log(f"  tol {tol:g}: true {_gated(err):.1e} estimate {max(mr['estimate'][q] for q in ('states', 'multipliers')):.1e} "
+            f"{wall:.2f} s wall {cpu:.2f} s cpu; best fixed {best and best['setting']}")
+    return rows, fixed
+
+
+def _where(sol) -> str:
+    """The final mesh in words: the shortest intervals and where they are."""
+    mesh = sol.transcription.scheme.mesh_fractions
+    h = np.diff(mesh)
+    short = np.argsort(h)[:4]
+    spots = ", ".join(f"{mesh[k]:.4f}-{mesh[k + 1]:.4f}" for k in sorted(short))
+    return f"{len(h)} intervals, widths {h.min():.1e} to {h.max():.1e} of the horizon; shortest at {spots}"
+
+
+def switching_table(runs: int, tolerances=(1e-3, 1e-4), log=print) -> list[dict]:
+    """Minimum-time swing-up and rolling-disk drive: final hp meshes vs uniform Radau 3 of the same accuracy."""
+    cases = {
+        "minimum-time swing-up": (minimum_time_swing_up, Radau(400, degree=3), "fine uniform radau3 N=400"),
+        "rolling_disk drive": (lambda: build_task("rolling_disk", "drive")[1], Radau(200, degree=3), "fine uniform radau3 N=200"),
+    }
+    rows = []
+    for case, (make, ref_method, ref_label) in cases.items():
+        ref = make().solve(ref_method)
+
+        def truth(sol, fractions, ref=ref):
+            return values_at(ref, fractions)
+
+        uniform = []
+        for N in (10, 20, 40, 80, 160):
+            try:
+                sol, wall, cpu = _median_run(lambda: make().solve(Radau(N, degree=3)), runs)
+            except OCPSolveError as exc:
+                log(f"  {case} uniform radau3 N={N}: {exc}")
+                continue
+            err = true_error(sol, truth)
+            uniform.append({"setting": f"radau3 N={N}", "points": 3 * N + 1, "wall_s": wall, "cpu_s": cpu, "error": _gated(err),
+                            "t_final": sol.t_final})
+            log(f"  {case} uniform radau3 N={N}: error {_gated(err):.1e} {wall:.2f} s")
+        for tol in tolerances:
+            try:
+                sol, wall, cpu = _median_run(lambda: make().solve(tolerance=tol), runs)
+            except OCPSolveError as exc:
+                log(f"  {case} tol {tol:g}: {exc}")
+                continue
+            mr, err = sol.mesh_refinement, true_error(sol, truth)
+            ok = [u for u in uniform if u["error"] <= _gated(err)]
+            best = min(ok, key=lambda u: u["wall_s"]) if ok else None
+            rows.append({"case": case, "tolerance": tol, "met_estimate": mr["met"], "message": mr["message"], "true": err,
+                         "estimate": mr["estimate"], "points": sol.transcription.scheme.point_count, "where": _where(sol),
+                         "wall_s": wall, "cpu_s": cpu, "uniform": best, "reference": ref_label, "t_final": sol.t_final,
+                         "t_final_ref": ref.t_final, "uniform_rows": uniform})
+            log(f"  {case} tol {tol:g}: true {_gated(err):.1e} est {max(mr['estimate'][q] for q in ('states', 'multipliers')):.1e} "
+                f"{wall:.2f} s; {_where(sol)}; uniform {best and best['setting']}")
+    return rows
+
+
+def _ratio(true: float, estimate: float) -> str:
+    r = true / estimate if estimate > 0 else float("inf")
+    return f"{r:.2f}" + ("" if 0.1 <= r <= 1.0 else " (outside [0.1, 1])")
+
+
+def markdown(swing: list[dict], fixed: list[dict], switching: list[dict], runs: int, seconds: float) -> str:
+    out = [f"# Mesh refinement to a tolerance (issue 19)\n\n`python -m ocp_constraints.bench.mesh_refinement --runs {runs}` "
+           f"({seconds / 60:.1f} min, {time.strftime('%Y-%m-%d %H:%M')}; times are medians of {runs} runs of the whole "
+           f"`problem.solve`, wall and CPU; the machine's 2 cores were shared with other jobs, so wall times are inflated).\n\n"
+           "## Swing-up: estimates vs true errors (Pontryagin reference)\n\n"
+           "Start: Radau 3, 10 intervals. Error = max(states abs., multipliers rel. to the largest load); "
+           "ratio = true / estimate (the estimate is trusted when it lies in [0.1, 1]).\n\n"
+           "| tolerance | refinements | final mesh | states: true / estimate (ratio) | multipliers: true / estimate (ratio) "
+           "| time wall / CPU (s) | cheapest fixed mesh meeting the tolerance | its time wall / CPU (s) | ratio wall / CPU |\n"
+           "|---|---|---|---|---|---|---|---|---|\n"]
+    for r in swing:
+        t, e, b = r["true"], r["estimate"], r["best"]
+        fixed_cell = "none in the sweep" if b is None else b["setting"] + f" (error {b['error']:.1e})"
+        bt = "" if b is None else f"{b['wall_s']:.2f} / {r['best_cpu']['cpu_s']:.2f}"
+        ratio = "" if b is None else f"{r['wall_s'] / b['wall_s']:.1f} / {r['cpu_s'] / r['best_cpu']['cpu_s']:.1f}"
+        out.append(f"| {r['tolerance']:g} | {r['refinements']} | {r['intervals']} intervals, degrees {r['degrees']}, "
+                   f"{r['points']} points | {t['states']:.1e} / {e['states']:.1e} ({_ratio(t['states'], e['states'])}) | "
+                   f"{t['multipliers']:.1e} / {e['multipliers']:.1e} ({_ratio(t['multipliers'], e['multipliers'])}) | "
+                   f"{r['wall_s']:.2f} / {r['cpu_s']:.2f} | {fixed_cell} | {bt} | {ratio} |\n")
+    out.append("\n<details><summary>fixed-mesh sweep (same run)</summary>\n\n| setting | points | error | time wall / CPU (s) |\n|---|---|---|---|\n")
+    out += [f"| {f['setting']} | {f['points']} | {f['error']:.1e} | {f['wall_s']:.2f} / {f['cpu_s']:.2f} |\n" for f in fixed]
+    out.append("\n</details>\n\n## Switching solutions: final hp mesh vs uniform meshes of the same accuracy\n\n"
+               "| case | tolerance | estimate met | true error (vs reference) / estimate | final mesh | time wall / CPU (s) "
+               "| cheapest uniform Radau 3 as accurate | its time wall / CPU (s) | reference |\n|---|---|---|---|---|---|---|---|---|\n")
+    for r in switching:
+        u, t, e = r["uniform"], r["true"], r["estimate"]
+        ucell = "none up to N = 160" if u is None else f"{u['setting']} ({u['points']} points, error {u['error']:.1e})"
+        ut = "" if u is None else f"{u['wall_s']:.2f} / {u['cpu_s']:.2f}"
+        out.append(f"| {r['case']} | {r['tolerance']:g} | {'yes' if r['met_estimate'] else 'no: ' + r['message']} | "
+                   f"states {t['states']:.1e} / {e['states']:.1e}, multipliers {t['multipliers']:.1e} / {e['multipliers']:.1e} | "
+                   f"{r['points']} points; {r['where']} | {r['wall_s']:.2f} / {r['cpu_s']:.2f} | {ucell} | {ut} | {r['reference']} |\n")
+    return "".join(out)
+
+
+def main(argv=None) -> int:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--runs", type=int, default=3)
+    ap.add_argument("--out", default="results/bench/mesh_refinement.md")
+    ap.add_argument("--skip-switching", action="store_true")
+    args = ap.parse_args(argv)
+    started = time.perf_counter()
+    swing, fixed = swing_up_table(args.runs)
+    switching = [] if args.skip_switching else switching_table(args.runs)
+    text = markdown(swing, fixed, switching, args.runs, time.perf_counter() - started)
+    path = Path(args.out)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    tmp = path.with_suffix(".tmp")
+    tmp.write_text(text)
+    tmp.replace(path)
+    print(text)
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())
