@@ -3,6 +3,7 @@
     python scripts/knee_timing.py            # 3 runs of the README's knee command (subprocess): median wall, CPU
     python scripts/knee_timing.py --runs 5 --no-plots
     python scripts/knee_timing.py --phases   # one run in-process: wall and CPU of each phase
+    python scripts/knee_timing.py --static --runs 5   # the static optimisation alone, medians
 
 CPU is user + system time of the command (``resource.getrusage``), all its processes together,
 and of its main process alone (the figure process imports matplotlib beside it on the other
@@ -82,12 +83,43 @@ def phases(plots: bool) -> None:
     print("static optimisation (wall):", {k: round(v, 3) for k, v in run["result"].timings.items()})
 
 
+def static_only(runs: int) -> None:
+    """The static optimisation alone, ``runs`` times on the cycle's inputs (captured from one run_knee)."""
+    os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
+    import ocp_constraints.biomech.knee_pipeline as pipeline
+    from ocp_constraints.biomech.knee_static import solve_static
+
+    captured = {}
+
+    def capture(t, Qc, R, A, F0, **kw):
+        captured.update(args=(t, Qc, R, A, F0), kw=kw)
+        return solve_static(t, Qc, R, A, F0, **kw)
+
+    pipeline.solve_static = capture
+    a = knee_args()
+    pipeline.run_knee(a[1], a[3], a[5], a[7])
+    walls, cpus = [], []
+    for i in range(runs):
+        w, c = time.perf_counter(), time.process_time()
+        res = solve_static(*captured["args"], **captured["kw"])
+        walls.append(time.perf_counter() - w)
+        cpus.append(time.process_time() - c)
+        print(f"run {i + 1}: {walls[-1]:.3f} s wall, {cpus[-1]:.3f} s CPU (build {res.timings['build']:.3f} s, "
+              f"solve {res.timings['solve']:.3f} s wall; load average {os.getloadavg()[0]:.1f})")
+    print(f"static optimisation of the cycle ({len(res.t)} frames): median of {runs}: "
+          f"{statistics.median(walls):.3f} s wall, {statistics.median(cpus):.3f} s CPU")
+
+
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("--runs", type=int, default=3)
     ap.add_argument("--no-plots", action="store_true")
     ap.add_argument("--phases", action="store_true")
+    ap.add_argument("--static", action="store_true", help="the static optimisation alone, --runs times")
     args = ap.parse_args()
+    if args.static:
+        static_only(args.runs)
+        return
     if args.phases:
         phases(not args.no_plots)
         return
