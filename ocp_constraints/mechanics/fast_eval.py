@@ -9,13 +9,16 @@ the samples' multipliers, the integrator itself) call their functions this way.
 """
 from __future__ import annotations
 
+import threading
+
 import casadi as ca
 import numpy as np
 
 
 class Buffered:
     """``f`` callable with NumPy arguments, returning dense NumPy results (one array per output,
-    of the output's shape; a column vector as a 1-D array). Results are fresh arrays."""
+    of the output's shape; a column vector as a 1-D array). Results are fresh arrays. Thread-safe
+    (the one buffer is locked during a call)."""
 
     def __init__(self, f: ca.Function):
         self.function = f
@@ -25,6 +28,7 @@ class Buffered:
         self._in_index = [_dense_index(f.sparsity_in(i)) for i in range(f.n_in())]
         self._res = [np.zeros(f.nnz_out(i)) for i in range(f.n_out())]
         self._out = [(f.sparsity_out(i).shape, _dense_index(f.sparsity_out(i))) for i in range(f.n_out())]
+        self._lock = threading.Lock()
         self._buffer, self._eval = f.buffer()   # the buffer holds pointers into the arrays above: keep both
         for i, a in enumerate(self._args):
             self._buffer.set_arg(i, memoryview(a))
@@ -32,19 +36,20 @@ class Buffered:
             self._buffer.set_res(i, memoryview(r))
 
     def __call__(self, *args) -> list[np.ndarray]:
-        for i, a in enumerate(args):
-            flat = np.asarray(a, dtype=float).ravel(order="F")   # CasADi's column-major storage
-            self._args[i][:] = flat if self._dense_in[i] else flat[self._in_index[i]]
-        self._eval()
-        out = []
-        for (shape, index), r in zip(self._out, self._res):
-            if index is None:
-                dense = r.copy()
-            else:
-                dense = np.zeros(shape[0] * shape[1])
-                dense[index] = r
-            out.append(dense if shape[1] == 1 else dense.reshape(shape[1], shape[0]).T)
-        return out
+        with self._lock:   # one buffer: calls from several threads take turns
+            for i, a in enumerate(args):
+                flat = np.asarray(a, dtype=float).ravel(order="F")   # CasADi's column-major storage
+                self._args[i][:] = flat if self._dense_in[i] else flat[self._in_index[i]]
+            self._eval()
+            out = []
+            for (shape, index), r in zip(self._out, self._res):
+                if index is None:
+                    dense = r.copy()
+                else:
+                    dense = np.zeros(shape[0] * shape[1])
+                    dense[index] = r
+                out.append(dense if shape[1] == 1 else dense.reshape(shape[1], shape[0]).T)
+            return out
 
 
     def named(self, **kwargs) -> dict[str, np.ndarray]:

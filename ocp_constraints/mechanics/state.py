@@ -117,9 +117,10 @@ def consistent_state(eqs: SystemEquations, coordinates: dict[str, float], rates:
     return q, u
 
 
-def _projection_parts(eqs: SystemEquations):
+def projection_parts(eqs: SystemEquations) -> Buffered:
     """``(q, u, t, inputs) -> (phi, d(phi)/dq, G, G u + e, M)``: what a projection needs, in one call
-    (built once per model; a call from Python costs more than evaluating these small functions)."""
+    (built once per model, or given by an equal model's simulation: a call from Python costs more
+    than evaluating these small functions, and building one ~1 ms)."""
     cache = eqs.__dict__
     if "_projection_parts" not in cache:
         import casadi as ca
@@ -143,7 +144,7 @@ def _project(eqs: SystemEquations, q: np.ndarray, u: np.ndarray | None, t: float
             spans.append(slice(start + 3, start + n))
         start += n
     w = np.zeros(eqs.inputs.numel()) if inputs is None else inputs
-    parts = _projection_parts(eqs)
+    parts = projection_parts(eqs)
 
     def evaluate(qv):
         phi, J, G, pi, M = parts(qv, u_in, t, w)
