@@ -172,3 +172,21 @@ def test_chunked_evaluation_equals_one_map_over_all_frames(run, monkeypatch):
     args = [rng.normal(size=(fns.frame.size_in(i)[0], 37)) for i in range(fns.frame.n_in())]     # 16 + 16 + 5
     for a, b in zip(fns.evaluate(fns.frame, *args), evaluate(fns.frame.map(37), *args)):
         np.testing.assert_array_equal(a, b)
+
+
+def test_disk_cache_keeps_only_the_newest_model_files(run, tmp_path, monkeypatch):
+    import os
+
+    from ocp_constraints.biomech import gait_compiled
+
+    monkeypatch.setenv("XDG_CACHE_HOME", str(tmp_path))
+    folder = gait_compiled.cache_file("x").parent
+    folder.mkdir(parents=True)
+    for k in range(gait_compiled.KEEP + 4):          # stale files of older keys, oldest first
+        f = folder / f"gait_old{k:02d}.json"
+        f.write_text("{}")
+        os.utime(f, (1e9 + k, 1e9 + k))
+    gait_compiled._save(run.functions)
+    left = sorted(p.name for p in folder.glob("gait_*.json"))
+    assert len(left) == gait_compiled.KEEP and gait_compiled.cache_file(run.functions.key).name in left
+    assert "gait_old00.json" not in left and f"gait_old{gait_compiled.KEEP + 3:02d}.json" in left

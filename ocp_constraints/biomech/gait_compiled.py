@@ -48,6 +48,7 @@ _MEMO: dict[str, "GaitFunctions"] = {}      # per process: a model's functions a
 #: 0.06 ms; both scale with the size of the function, so the break-even, ~23,000 frames, does not)
 COMPILE_ABOVE_FRAMES = 25_000
 CHUNK = 512          # frames a mapped evaluation takes at once (see GaitFunctions.evaluate)
+KEEP = 16            # model files kept in the disk cache (the newest)
 
 
 def _source_digest() -> str:
@@ -219,6 +220,14 @@ def _save(fns: GaitFunctions) -> None:
     tmp.write_text(json.dumps({"meta": fns.meta, "poses": fns.poses.serialize(), "frame": fns.frame.serialize(),
                                "system": fns.system.serialize()}))
     os.replace(tmp, path)       # atomic: a concurrent run sees no file or the whole file
+    # keep the newest KEEP files: every edit of the builder's source or of a model makes a new
+    # key (3-4 MB each for JW), and an old key is never asked for again
+    old = sorted(path.parent.glob("gait_*.json"), key=lambda f: f.stat().st_mtime, reverse=True)[KEEP:]
+    for f in old:
+        try:
+            f.unlink()
+        except OSError:
+            pass
 
 
 def _load(key: str) -> GaitFunctions | None:
