@@ -95,6 +95,25 @@ def solve(Qc, R, A, F0, power=2, reserve_weights=None, contact_weight=0.0, scale
     return Xs[nm] * scale, Xs[nm + 1] * scale, Xs[nm + 5:].T
 
 
+def passive_tensions(R, F0, Qpass):
+    """C12: passive tensions p >= 0 (N, frames x muscles) along the muscles' paths that make the passive
+    generalized forces ``Qpass`` (frames x the six primary rows): min sum (p/F0)^2 per frame, one QP."""
+    from ocp_constraints.biomech.knee_static import _block_diagonal
+
+    N, _, nm = R.shape
+    nres = Qpass.shape[1]
+    B = _block_diagonal(R[:, :nres, :] * F0[None, None, :] / 100.0)       # y = p / F0; rows in hN m
+    Y = ca.MX.sym("Y", nm * N)
+    S = ca.nlpsol("p", "ipopt", {"x": Y, "f": ca.sumsqr(Y), "g": ca.mtimes(B, Y) - ca.DM((Qpass / 100.0).ravel())},
+                  {"ipopt.print_level": 0, "print_time": False, "ipopt.sb": "yes", "ipopt.tol": 1e-10,
+                   "ipopt.hessian_constant": "yes", "ipopt.jac_c_constant": "yes", "ipopt.jac_d_constant": "yes",
+                   "ipopt.mehrotra_algorithm": "yes", "ipopt.bound_relax_factor": 0.0})
+    sol = S(x0=np.full(nm * N, 0.01), lbx=0.0, ubx=np.inf, lbg=0, ubg=0)
+    if not S.stats()["success"]:
+        raise RuntimeError("passive tensions: " + S.stats()["return_status"])
+    return np.asarray(sol["x"]).reshape(N, nm) * F0[None, :]
+
+
 def metrics(t, med, lat, res, meas) -> dict:
     tm, mm, ml = meas
     mm, ml = np.interp(t, tm, mm), np.interp(t, tm, ml)
@@ -159,6 +178,13 @@ def main(out_dir: Path):
                           ("optimal_fiber_length", "tendon_slack_length", "pennation_angle"))
     _, l_opt, l_s = scale_lengths(np.asarray(paths.unit_length(paths.q_vector({}))).ravel(), l_opt, l_s, alpha0)
     hill_active = hill_forces(Lmt, Vmt, F0, l_opt, l_s, alpha0).active
+    Qpass = Qc[:, :len(RESERVED)] - Q7[:, :len(RESERVED)]         # C12: C7's passive generalized forces
+    Ptens = passive_tensions(R, F0, Qpass)
+    Q12 = Qc - np.einsum("ncm,nm->nc", R, Ptens)
+    assert np.abs(Q12[:, :len(RESERVED)] - Q7[:, :len(RESERVED)]).max() < 1e-6
+    print("C12 passive tensions: largest p/F0 %.3f, largest %s %.0f N; knee locked rows changed by up to %s" % (
+        (Ptens / F0).max(), mus[int(np.argmax(Ptens.max(0)))], Ptens.max(),
+        np.abs(Q12 - Q7)[:, len(RESERVED):].max(0).round(1).tolist()), flush=True)
     cheap_hip = np.ones(len(RESERVED))
     cheap_hip[:3] = 1e-3
     rows = [("C0", "baseline: ideal muscles, sum a^2, reserves 1 N m^-2, no passive hip moment", {}),
@@ -172,7 +198,8 @@ def main(out_dir: Path):
             ("C9", "C7 with volume-weighted effort sum V a^2, Happee & van der Helm 1995 (reported only)",
              {"Q": Q7, "activation_weights": volume}),
             ("C11", "C7 with Hill active force-length-velocity (rigid tendon), no fibre passive force (reported only)",
-             {"Q": Q7, "F0": hill_active})]
+             {"Q": Q7, "F0": hill_active}),
+            ("C12", "C7's passive moments as passive tension along the muscles' paths (reported only)", {"Q": Q12})]
     arms = opensim_arms(gait, mus)
     if arms is not None:
         Rg, Ra = R.copy(), R.copy()
