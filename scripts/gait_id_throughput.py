@@ -12,7 +12,8 @@ temporary directory), so "cold" is really cold and nothing of the user's cache i
 
 For each state: the load time (build / read / load / compile, CPU including the compiler's), the first evaluation over the trial's frames
 and the median of 5 further evaluations (frames per second = frames / that time), all in-process
-(wall and CPU), plus ``run_inverse_dynamics`` from files to results. Then the whole command
+(wall and CPU), the trial 40 times over in one call (chunks of 512 frames), plus
+``run_inverse_dynamics`` from files to results. Then the whole command
 ``ocp-constraints gait ... --no-plots`` (and once with plots) as a subprocess, warm caches, wall
 and CPU (the children's user + system time). Medians of ``--runs`` runs (default 3).
 """
@@ -30,6 +31,7 @@ import time
 from pathlib import Path
 
 ROOT = Path(__file__).resolve().parents[1]
+TILE = 40          # copies of the trial in the large evaluation (JW: 9,880 frames)
 DATA = ROOT.parent / "shared" / "data"
 G = DATA / "opensim-gait2354-subject01"
 J = DATA / "grand-challenge-knee-jw"
@@ -77,6 +79,11 @@ def child(trial: str, compiled: str) -> dict:
         out = fns.evaluate(fns.frame, *args)
         times.append((time.perf_counter() - w, time.process_time() - c))
     same = float(np.max(np.abs(out[6].T - result.generalized_forces)))
+    tiled = [np.tile(a, (1, TILE)) for a in args]          # the trial 40 times: chunks of 512 frames
+    w, c = time.perf_counter(), time.process_time()
+    big = fns.evaluate(fns.frame, *tiled)
+    tile_s = (time.perf_counter() - w, time.process_time() - c)
+    same = max(same, float(np.max(np.abs(big[6][:, -N:].T - result.generalized_forces))))
     warm = times[1:]
     w, c = time.perf_counter(), time.process_time()
     run_inverse_dynamics(model, motion, grf, compiled=compiled)
@@ -84,7 +91,7 @@ def child(trial: str, compiled: str) -> dict:
     return {"trial": trial, "frames": N, "source": source, "compiled": fns.compiled,
             "operations_per_frame": fns.meta.get("instructions"), "imports_s": imports, "load_s": load,
             "first_eval_s": times[0], "eval_s": (statistics.median(t[0] for t in warm), statistics.median(t[1] for t in warm)),
-            "run_s": again, "check_max_abs_diff": same}
+            "run_s": again, "tile_s": tile_s, "check_max_abs_diff": same}
 
 
 def _spawn(args: list[str], env: dict) -> tuple[float, float, str]:
@@ -121,8 +128,8 @@ def main() -> None:
         print(json.dumps(child(*a.child)))
         return
     lines = ["| trial | state | frames | load (wall / CPU) | first evaluation | frames/s (wall / CPU), median of 5 | "
-             "run_inverse_dynamics, functions in memory |",
-             "|---|---|---:|---:|---:|---:|---:|"]
+             f"frames/s (wall / CPU), {TILE} copies at once | run_inverse_dynamics, functions in memory |",
+             "|---|---|---:|---:|---:|---:|---:|---:|"]
     commands = ["| trial | command (warm caches) | wall, median | CPU, median | runs |", "|---|---|---:|---:|---:|"]
     for trial in a.trials:
         with tempfile.TemporaryDirectory(prefix="gait_bench_") as cache:
@@ -135,6 +142,7 @@ def main() -> None:
                 ew, ec = _med(rows, "eval_s", 0), _med(rows, "eval_s", 1)
                 lines.append(f"| {trial} | {label} | {N} | {_med(rows, 'load_s', 0):.3f} s / {_med(rows, 'load_s', 1):.3f} s | "
                              f"{_med(rows, 'first_eval_s', 0) * 1e3:.1f} ms | {N / ew:,.0f} / {N / ec:,.0f} | "
+                             f"{TILE * N / _med(rows, 'tile_s', 0):,.0f} / {TILE * N / _med(rows, 'tile_s', 1):,.0f} | "
                              f"{_med(rows, 'run_s', 0):.3f} s / {_med(rows, 'run_s', 1):.3f} s |")
                 assert max(r["check_max_abs_diff"] for r in rows) < 1e-9, rows        # same numbers as the run
                 print(lines[-1], flush=True)
