@@ -62,14 +62,44 @@ class JointGuess:
             if np.abs(step).max() < 1e-12 * (1 + np.abs(p).max()):
                 break
         if r.phi.numel():
-            phi = self._functions["phi"].map(P)
-            for _ in range(30):
-                value, jac = (np.asarray(v) for v in phi(p, t[None, :], np.zeros((r.inputs.numel(), P))))
-                jac = jac.reshape(-1, P, r.nq).transpose(1, 0, 2)
-                step = -(np.linalg.pinv(jac) @ value.T[:, :, None])[:, :, 0].T
-                p = p + step
-                if np.abs(value).max() < 1e-12:
-                    break
+            p = self._onto_constraints(p, pose, mask, goal, t)
+        return p
+
+    def _onto_constraints(self, p, pose, mask, goal, t, weight: float = 1e3) -> np.ndarray:
+        """Levenberg-Marquardt on ``weight^2 |phi_r(p)|^2 + |mask (q(p) - goal)|^2`` point by point (the
+        feasible pose nearest the guess: a loop closure is met by the unguessed joints first), then
+        minimum-norm Gauss-Newton steps on ``phi_r = 0`` alone, to round-off."""
+        r, P = self.r, p.shape[1]
+        phi = self._functions["phi"].map(P)
+        w0 = np.zeros((r.inputs.numel(), P))
+
+        def residual(p):
+            value, jac = (np.asarray(v) for v in phi(p, t[None, :], w0))
+            q, dq = pose(p)
+            R = np.vstack([weight * value, (np.asarray(q) - goal) * mask])
+            J = np.concatenate([weight * jac.reshape(-1, P, r.nq),
+                                np.asarray(dq).reshape(-1, P, r.nq) * mask[:, :, None]]).transpose(1, 0, 2)
+            return R, J, value, jac.reshape(-1, P, r.nq).transpose(1, 0, 2)
+
+        R, J, _, _ = residual(p)
+        cost, mu = (R**2).sum(axis=0), np.full(P, 1e-3)
+        eye = np.eye(r.nq)
+        for _ in range(100):
+            H = np.transpose(J, (0, 2, 1)) @ J + mu[:, None, None] * eye
+            step = -np.linalg.solve(H, np.transpose(J, (0, 2, 1)) @ R.T[:, :, None])[:, :, 0].T
+            R1, J1, _, _ = residual(p + step)
+            cost1 = (R1**2).sum(axis=0)
+            better = cost1 < cost
+            p = np.where(better, p + step, p)
+            R, J = np.where(better, R1, R), np.where(better[:, None, None], J1, J)
+            cost, mu = np.where(better, cost1, cost), np.where(better, mu * 0.3, mu * 10.0)
+            if np.abs(step).max() < 1e-12 * (1 + np.abs(p).max()):
+                break
+        for _ in range(10):
+            _, _, value, jac = residual(p)
+            if np.abs(value).max() < 1e-14:
+                break
+            p = p - (np.linalg.pinv(jac) @ value.T[:, :, None])[:, :, 0].T
         return p
 
     def speeds(self, p: np.ndarray, targets: np.ndarray, t: np.ndarray, W: np.ndarray) -> np.ndarray:

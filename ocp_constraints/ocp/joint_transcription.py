@@ -27,6 +27,7 @@ import numpy as np
 from ..errors import ModelError, OCPSolveError
 from ..mechanics.generalized import JointCoordinates
 from .bounds import _keep_away_from_euler_singularities
+from .guess import consistent_guess
 from .joint_guess import JointGuess
 from .solution import OCPSolution
 from .transcription import Transcription
@@ -122,6 +123,14 @@ class JointTranscription(Transcription):
         for r, n in enumerate(pr.model.inputs):
             if n in pr.guess:
                 W[r] = np.broadcast_to(pr.guess[n](t), t.shape)
+        if self.reduced.phi.numel():
+            # A loop closure or contact stays: start from the maximal form's consistent start (its
+            # positions on every constraint with the boundary values and guesses kept, speeds,
+            # multipliers and inputs), carried to joint coordinates: both forms start from one motion.
+            maximal = SimpleNamespace(eqs=e, problem=pr, fractions=self.fractions, layout=SimpleNamespace(n_acc=P),
+                                      accelerations=lambda X, A, t_final: A)
+            X, _, L, W = consistent_guess(maximal, np.vstack([np.nan_to_num(X[: e.nq]), X[e.nq :]]), W, pr.t_final)
+            return self._from_maximal(X, L, W, pr.t_final)
         start = self._start
         p = start.coordinates(X[: e.nq], t)
         U = start.speeds(p, X[e.nq :], t, np.nan_to_num(W))
