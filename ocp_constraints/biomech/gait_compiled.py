@@ -20,7 +20,8 @@ serialized CasADi functions and the names a result needs, under
 keyed by the SHA-256 of the ``.osim`` file's bytes, the CasADi version and the source text of
 the modules that build it (so an edit of the code or of the model is another key). The
 frame function is compiled to C (:mod:`ocp_constraints.dynamics.compiled`) when asked for
-(``compiled="always"``) or when a compiled copy is already cached (``"auto"``).
+(``compiled="always"``), or with ``"auto"`` when a compiled copy is already cached or the
+call has :data:`COMPILE_ABOVE_FRAMES` frames or more (where compiling pays within the call).
 """
 from __future__ import annotations
 
@@ -106,7 +107,6 @@ class GaitFunctions:
                                 f"(key {self.key}); delete {cache_file(self.key)} and run again")
             self._model = (model, eqs, joints)
         return self._model
-
 
     def evaluate(self, F: ca.Function, *args) -> list[np.ndarray]:
         """``F`` (``poses`` or ``frame``) at every frame: ``args`` are arrays with one column a frame.
