@@ -90,17 +90,24 @@ def test_multipliers_of_a_joint_chain_match_the_maximal_kkt_system():
     oc.joints.revolute(model, "knee", b.point("top", (0.0, 0.1, 0.2)), axis=(0, 1, 0), other=a.point("end", (0.1, 0, -0.3)))
     oc.joints.prismatic(model, "slide", c.point("p", (0.05, 0, 0)), axis=(1, 0, 0), other=b.point("end", (0, 0, -0.2)))
     model.add_torque("motor", a, ca.vertcat(0, 0, model.add_input("tau")))
+    # A drive written by hand in the knee's group (a prescribed relative rate): not the revolute
+    # function's, so it stays a constraint with its multiplier (the drive torque).
+    model.add_constraint("knee.drive", ca.dot(b.omega - a.omega, a.Q @ ca.DM([0, 1, 0])) - 0.3 * ca.sin(model.t),
+                         joint="knee")
     eqs = oc.SystemEquations(model)
     r = JointCoordinates(eqs)
-    assert r.coordinate_names == ["hip.angle", "knee.angle", "slide.distance"] and r.nc == 0
+    assert r.coordinate_names == ["hip.angle", "knee.angle", "slide.distance"] and r.constraint_names == ["knee.drive"]
     rng = np.random.default_rng(7)
-    p, ur, w = rng.uniform(-1, 1, 3), rng.uniform(-2, 2, 3), np.array([0.8])
-    Mr, fr = (np.asarray(v) for v in ca.Function("mf", [r.q, r.u, r.inputs], [r.mass_matrix, r.forces])(p, ur, w))
-    acc = np.linalg.solve(Mr, fr).ravel()
-    q, u, udot, lam = (np.asarray(v).ravel() for v in r.maximal_function(p, ur, acc, [], w, 0.0))
-    _, _, phi, pi, _ = eqs.constraint_functions(q, u, 0.0, w)
+    p, ur, w, t = rng.uniform(-1, 1, 3), rng.uniform(-2, 2, 3), np.array([0.8]), 0.4
+    ur[1] = 0.3 * np.sin(t)                 # on the drive's constraint
+    parts = ca.Function("kkt", [r.q, r.u, r.t, r.inputs], [r.mass_matrix, r.forces, r.G, r.gamma])
+    Mr, fr, Gr, gr = (np.asarray(v) for v in parts(p, ur, t, w))
+    K = np.block([[Mr, -Gr.T], [Gr, np.zeros((1, 1))]])
+    z = np.linalg.solve(K, np.concatenate([fr.ravel(), -gr.ravel()]))
+    q, u, udot, lam = (np.asarray(v).ravel() for v in r.maximal_function(p, ur, z[:3], z[3:], w, t))
+    _, _, phi, pi, _ = eqs.constraint_functions(q, u, t, w)
     assert np.abs(np.asarray(phi)).max() <= 1e-14 and np.abs(np.asarray(pi)).max() <= 1e-13
-    udot_kkt, lam_kkt = (np.asarray(v).ravel() for v in eqs.forward_dynamics(q, u, 0.0, w, 0.0))
+    udot_kkt, lam_kkt = (np.asarray(v).ravel() for v in eqs.forward_dynamics(q, u, t, w, 0.0))
     assert np.allclose(udot, udot_kkt, atol=1e-10) and np.allclose(lam, lam_kkt, atol=1e-9 * np.abs(lam_kkt).max())
 
 

@@ -21,8 +21,11 @@ import numpy as np
 
 from .bodies import Point
 
-#: joint kind -> (number of joint coordinates, name of each coordinate)
+#: joint kind -> the name of each joint coordinate
 KINDS = {"revolute": ("angle",), "prismatic": ("distance",), "weld": ()}
+#: joint kind -> the suffixes of the constraints its parameterization satisfies identically
+SUFFIXES = {"revolute": ("v1", "v2", "v3", "w1", "w2"), "prismatic": ("n1", "n2", "w1", "w2", "w3"),
+            "weld": ("v1", "v2", "v3", "w1", "w2", "w3")}
 
 
 @dataclass(eq=False)
@@ -59,7 +62,9 @@ def record(model, name: str, kind: str, point: Point, other: Point | None, ancho
     if R0 is None:
         R0 = np.eye(3) if body_axis is None else _aligning_rotation(np.asarray(body_axis, float).ravel(), n)
     a = np.zeros(3) if anchor is None else np.asarray(anchor, float).ravel()
-    names = tuple(c.name for c in model.joints[name].constraints)
+    # Only the constraints this joint function wrote: any other constraint grouped under the same
+    # joint name (written by hand before or after) stays a constraint.
+    names = tuple(f"{name}.{suffix}" for suffix in SUFFIXES[kind])
     maps = model.__dict__.setdefault("joint_maps", {})
     # A second joint function called with the same joint name adds constraints to the group:
     # no single known family then, so the group stays constraints with multipliers.
