@@ -21,7 +21,7 @@ from typing import Callable
 import casadi as ca
 import numpy as np
 
-from ..mechanics.state import null_space
+from ..mechanics.state import checked_start, null_space
 from ..errors import InconsistentStateError, ModelError, ResourceLimitError
 from ..mechanics.equations import SystemEquations
 from ..mechanics.validate import check_constraint_values
@@ -85,7 +85,16 @@ def input_function(eqs: SystemEquations, inputs) -> Callable[[float], np.ndarray
 
 
 def check_initial_state(eqs: SystemEquations, q: np.ndarray, u: np.ndarray, t0: float, w: np.ndarray) -> None:
-    """The initial state is finite, regular, on the constraints, and its accelerations are determined."""
+    """The initial state is finite, regular, on the constraints, and its accelerations are determined.
+
+    A state just returned by :func:`~ocp_constraints.mechanics.state.consistent_state` (the very same
+    values) had its regularity, constraints and redundancy checked there (more tightly); only the
+    loads and the mass matrix are checked then."""
+    G = checked_start(eqs, q, u, t0, w)
+    if G is not None:
+        _check_finite_loads(eqs, q, u, t0, w)
+        check_mass_matrix(eqs, q, G)
+        return
     start = 0
     for b in eqs.bodies:
         n = b.q.numel()
@@ -164,23 +173,19 @@ def check_mass_matrix(eqs: SystemEquations, q: np.ndarray, G: np.ndarray | None 
 
 # -- resources ---------------------------------------------------------------------------------
 
-#: Bytes per stored number: the trajectory keeps one small NumPy array per quantity and sample
-#: (about 112 bytes of object each plus 8 per value); loads, CSV text and plots at the write.
-_ARRAY_OBJECT = 112 + 8
-
-
 def samples_memory(eqs: SystemEquations, n_samples: int, write: bool = True) -> int:
     """Peak memory (bytes) of a run that keeps ``n_samples`` samples (and writes its results).
 
-    Per sample the trajectory holds 10 arrays (``t, q, u, u', lambda, inputs, work``, two drifts,
-    applied work); writing adds those as one array each, the state and load columns as floats (and
-    a copy), and the text of the widest file (about 25 bytes a number) three times over (the
-    buffer, its string, the encoded bytes). ``scripts/simulation_memory.py`` checks this formula
-    against ``tracemalloc`` peaks.
+    Per sample the trajectory holds the values of ``t, q, u, u', lambda, inputs, work``, two drifts
+    and the applied work, in one block per quantity and segment, and once more while the blocks are
+    joined into one array; writing adds those as one array each, the state and load columns as
+    floats (and a copy), and the text of the widest file (about 25 bytes a number) three times over
+    (the buffer, its string, the encoded bytes). ``scripts/simulation_memory.py`` and
+    tests/test_bad_input_catalogue.py check this formula against ``tracemalloc`` peaks.
     """
     nin = eqs.inputs.numel()
     arrays = 8 * (eqs.nq + 2 * eqs.nu + 2 * eqs.nc + nin)
-    held = 10 * _ARRAY_OBJECT + arrays
+    held = 2 * (arrays + 8 * 4)
     if not write:
         return int(n_samples * held)
     n_state = 2 * eqs.nq + eqs.nu + nin + 1            # coordinates, angle rates, speeds, inputs, t

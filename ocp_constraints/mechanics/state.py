@@ -114,7 +114,22 @@ def consistent_state(eqs: SystemEquations, coordinates: dict[str, float], rates:
         R = S[rest]
         w, *_ = np.linalg.lstsq(R @ Z, -R @ u, rcond=None)
         u = u + Z @ w
+    # What was checked here, for the simulation's preflight not to check the same values again.
+    eqs.__dict__["_checked_start"] = (q.copy(), u.copy(), float(t0), np.array(inputs, dtype=float), G)
     return q, u
+
+
+def checked_start(eqs: SystemEquations, q: np.ndarray, u: np.ndarray, t0: float, inputs) -> np.ndarray | None:
+    """``G`` at ``(q, u, t0, inputs)`` if :func:`consistent_state` returned exactly this state of ``eqs``
+    (its coordinates regular and on the constraints, its speeds satisfying them, no constraint
+    redundant: checked there), else None."""
+    known = eqs.__dict__.get("_checked_start")
+    if known is None:
+        return None
+    kq, ku, kt, kw, G = known
+    same = (float(t0) == kt and np.array_equal(q, kq) and np.array_equal(u, ku)
+            and np.array_equal(np.asarray(inputs, dtype=float).ravel(), kw.ravel()))
+    return G if same else None
 
 
 def projection_parts(eqs: SystemEquations) -> Buffered:
@@ -151,6 +166,8 @@ def _project(eqs: SystemEquations, q: np.ndarray, u: np.ndarray | None, t: float
         return phi, J.reshape(-1, eqs.nq), G.reshape(-1, eqs.nu), pi, M
 
     def residual(qv, phi, J):
+        if not spans:
+            return phi, J
         rows, res = [J], [phi]
         for s in spans:
             row = np.zeros((1, eqs.nq))
@@ -181,8 +198,12 @@ def _project(eqs: SystemEquations, q: np.ndarray, u: np.ndarray | None, t: float
     if u is None or not eqs.nc:
         return q, u_in.copy(), drift_q, drift_u
     _, _, G, r, M = values
-    K = np.block([[M, G.T], [G, np.zeros((eqs.nc, eqs.nc))]])
-    u_new = u_in + np.linalg.solve(K, np.concatenate([np.zeros(eqs.nu), -r]))[: eqs.nu]
+    n = eqs.nu
+    K = np.zeros((n + eqs.nc, n + eqs.nc))   # [M, G^T; G, 0]
+    K[:n, :n], K[:n, n:], K[n:, :n] = M, G.T, G
+    rhs = np.zeros(n + eqs.nc)
+    rhs[n:] = -r
+    u_new = u_in + np.linalg.solve(K, rhs)[:n]
     return q, u_new, drift_q, drift_u
 
 
