@@ -347,12 +347,26 @@ class Transcription:
         e, lay = self.eqs, self.layout
         t = self.fractions * t_final
         if A is None:
-            for i in range(lay.n_points):
+            # A start interpolated from a converged solution is on phi = 0 to its interpolation
+            # error already: project only the points that are not (a point's Gauss-Newton costs
+            # ~0.5 ms, a warm start of an hp mesh has hundreds of points).
+            off = np.arange(lay.n_points)
+            if e.phi.numel():
+                phi = np.asarray(self._phi_function().map(lay.n_points)(X[: e.nq], t[None, :], W))
+                off = np.flatnonzero(~np.all(np.abs(phi) <= 1e-12, axis=0))
+            for i in off:
                 X[: e.nq, i] = project_positions(e, X[: e.nq, i], t[i], inputs=W[:, i])
             A = np.gradient(X[e.nq :], t, axis=1) if lay.n_points > 1 else np.zeros((e.nu, 1))
         parts = [X.ravel(order="F"), A[:, : lay.n_acc].ravel(order="F"), L.ravel(order="F"), W.ravel(order="F"),
                  np.zeros(lay.nh * (lay.n_points - 1)), np.array([t_final] if lay.free_time else [])]
         return np.concatenate(parts)
+
+    def _phi_function(self) -> ca.Function:
+        """``(q, t, inputs) -> phi``, the position-level constraint forms."""
+        if "_phi" not in self.__dict__:
+            e = self.eqs
+            self._phi = ca.Function("phi", [e.q, e.t, e.inputs], [e.phi])
+        return self._phi
 
     def accelerations(self, X: np.ndarray, A: np.ndarray, t_final: float) -> np.ndarray:
         """``u'`` at every point (``nu x P``) from the state and acceleration blocks of a
