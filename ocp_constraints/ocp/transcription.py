@@ -21,7 +21,8 @@ remain: the same NLP with ``nu`` fewer variables and rows per point (IPOPT's
 factorization is cheaper; see ``Scheme.accelerations_from_speeds``).
 The NLP is a few kinds of SX elements (one point, one interval, the boundary rows)
 repeated over the mesh; IPOPT gets exact derivatives assembled from each element's own
-(:mod:`ocp_constraints.ocp.nlp_assembly`), so the build grows like the mesh.
+(:mod:`ocp_constraints.ocp.nlp_assembly`), so the build grows like the mesh. On an hp mesh
+(``Radau(mesh=..., degrees=...)``) each interval has its own scheme: one element kind per degree.
 """
 from __future__ import annotations
 
@@ -36,6 +37,7 @@ from ..errors import ModelError
 from .nlp_assembly import BlockNLP, element
 from .bounds import variable_bounds
 from .guess import consistent_guess, from_solution
+from .interpolation import interpolation_matrix
 from .progress import IterationMonitor, stop_on_signals
 from .solution import OCPSolution
 from ..errors import OCPSolveError
@@ -126,20 +128,8 @@ class Transcription:
         return range(int(self.offsets[k]), int(self.offsets[k + 1]) + 1)
 
     def interpolation_matrix(self, fractions) -> np.ndarray:
-        """``E`` (``len(fractions) x points``) with ``values(fractions) = E @ point_values``: each
-        interval's Lagrange polynomial through its points, at normalized times in ``[0, 1]``."""
-        fractions = np.atleast_1d(np.asarray(fractions, dtype=float))
-        mesh = self.scheme.mesh_fractions
-        k_of = np.clip(np.searchsorted(mesh, fractions, side="right") - 1, 0, self.scheme.intervals - 1)
-        E = np.zeros((len(fractions), self.layout.n_points))
-        for k in np.unique(k_of):
-            rows = np.flatnonzero(k_of == k)
-            idx = np.asarray(self.interval_points(k))
-            nodes, s = self.fractions[idx], fractions[rows]
-            for j in range(len(idx)):
-                others = np.delete(nodes, j)
-                E[rows, idx[j]] = np.prod((s[:, None] - others[None, :]) / (nodes[j] - others[None, :]), axis=1)
-        return E
+        """Point values to values at normalized times (:func:`.interpolation.interpolation_matrix`)."""
+        return interpolation_matrix(self, fractions)
 
     def _groups(self) -> dict:
         """Intervals sharing one local scheme (one element kind each): ``{label: (scheme, [k, ...])}``."""
