@@ -120,3 +120,28 @@ def test_external_loads_enter_as_applied_loads():
     assert res.residual.max() < 1e-12
     with pytest.raises(ModelError, match=r"external must have shape \(3, 6\)"):
         InverseDynamics(eqs).solve(angles * 0, q, zeros, zeros, external=ext[:, :3])
+
+
+
+def test_balances_singular_at_a_later_sample_are_named():
+    """The block solve divides by zero where a constraint's gradient vanishes: the sample is named.
+
+    Six hand-written constraints hold a body still; the first one's gradient is ``x`` (its
+    position), so the balances are regular at x = 1 (the first sample, which the rank check
+    sees) and singular at x = 0 (the third sample)."""
+    model = Model("held", gravity=(0, -9.81, 0))
+    b = model.add_body("block", 1.0, np.eye(3) * 0.1, rotation="321")
+    model.add_constraint("x_scaled", b.xbar[0] * b.vbar[0])
+    for k, name in ((1, "vy"), (2, "vz")):
+        model.add_constraint(name, b.vbar[k])
+    for k, name in enumerate(("wx", "wy", "wz")):
+        model.add_constraint(name, b.omega[k])
+    inverse = InverseDynamics(SystemEquations(model))
+    assert inverse.solution is not None
+    x = np.array([1.0, 0.5, 0.0, -0.5])
+    q = np.column_stack([x, np.zeros((4, 5))])
+    zeros = np.zeros((4, 6))
+    with pytest.raises(ModelError, match=r"singular at sample 2 \(t = 0\.2\)"):
+        inverse.solve(np.array([0.0, 0.1, 0.2, 0.3]), q, zeros, zeros)
+    ok = inverse.solve(np.array([0.0, 0.1]), q[:2], zeros[:2], zeros[:2])
+    np.testing.assert_allclose(ok.multiplier("vy"), 9.81, rtol=1e-12)      # the weight, held by vbar_y = 0

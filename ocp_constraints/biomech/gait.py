@@ -310,6 +310,11 @@ def run_inverse_dynamics(model_path, motion_path, grf_path, start: float | None 
         M_O.reshape(N, 3 * nb).T, t[None, :]))
     residual = residual.ravel()
     fns.check_determined(q[0], u[0], t[0], model_path)
+    finite = np.isfinite(lam).all(axis=1) & np.isfinite(tau).all(axis=1) & np.isfinite(residual)
+    if not finite.all():       # singular at a later frame (the rank check saw the first)
+        n = int(np.flatnonzero(~finite)[0])
+        raise GaitError(f"{model_path}: the balances are singular at t = {t[n]:g} s (frame {n}): the joint loads "
+                        "are not determined there; check the motion for a joint at a singular configuration")
     worst = float(residual.max(initial=0.0))
     # as InverseDynamics: exact when the residual is below EXACT times the balances' scale
     exact = worst <= EXACT or worst <= EXACT * max(1.0, fns.balance_scale(q, u, ud, t, fext))

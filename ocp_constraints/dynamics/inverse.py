@@ -246,6 +246,14 @@ class InverseDynamics:
             lam, tau, res = evaluate(self.solution.map(N), q.T, u.T, udot.T, t[None, :], fext.T)
             x = np.vstack([lam, tau]).T
             res = res.ravel()
+            # a block singular at some sample (the rank check saw the first only); the residual
+            # cannot tell (CasADi simplifies a (b / a) - b to 0), the solution can
+            bad = ~np.isfinite(x).all(axis=1)
+            if bad.any():
+                n = int(np.flatnonzero(bad)[0])
+                raise ModelError(f"inverse dynamics of '{e.model.name}': the balances are singular at sample {n} "
+                                 f"(t = {t[n]:g}): multipliers and inputs are not determined there; check for a "
+                                 "joint at a singular configuration or constraints that become redundant")
             scale = 0.0
             if res.max(initial=0.0) > EXACT:    # the balances' scale, only needed to judge a residual
                 b = evaluate(self._system.map(N), q.T, u.T, udot.T, t[None, :])[1].T - fext
