@@ -1,6 +1,7 @@
 """Pendulum swing-up, Radau 3: ours in maximal coordinates, ours in joint coordinates, rockit.
 
     python scripts/ocp_joint_coordinates_bench.py [--N 25 50 100 200 400] [--runs 3] [--degree 3]
+    python scripts/ocp_joint_coordinates_bench.py --degree 9 --N 20 --runs 3     # high accuracy
 
 One interleaved run: for each repetition, each N, each solver in turn (so a noisy neighbour
 hits all three alike). Per solver and N, the medians over the runs of:
@@ -12,7 +13,8 @@ hits all three alike). Per solver and N, the medians over the runs of:
   in all, wall and CPU (``time.process_time``);
 - iterations, ms per iteration (IPOPT wall / iterations), the objective and its error against the
   Pontryagin extremal (bench/references.py, shooting on the 1-DOF equation: an independent value);
-- NLP size (variables, constraints).
+- NLP size (variables, constraints); ours: the largest state error and hinge-multiplier error
+  (relative to the largest hinge load, t > 0) against the extremal's hand Newton-Euler loads.
 rockit's swing-up is bench/peers.py's ``rockit_swing_up`` (minimal coordinates psi, psi', one
 piecewise-constant control per interval), here with the solver stats read out.
 """
@@ -29,7 +31,17 @@ from ocp_constraints.bench.peers import IPOPT_TOL, _pendulum_constants
 from ocp_constraints.bench.references import swing_up_reference
 
 
-def ours(N: int, degree: int, coordinates: str) -> dict:
+def _errors(sol, ref) -> tuple[float, float]:
+    """Largest state error (rad, rad/s) and hinge-multiplier error relative to the largest hinge load
+    (25.15 N), t > 0 (Radau has no defect of its own at t = 0), against the Pontryagin extremal."""
+    psi, w = ref.states(sol.t)
+    state = max(np.abs(sol.sample("rod.psi") - psi).max(), np.abs(sol.sample("rod.psi_dot") - w).max())
+    lam = ref.multipliers(sol.t)
+    return float(state), max(float(np.abs(sol.sample(k)[1:] - lam[k][1:]).max()) for k in ("hinge.v1.lambda",
+                                                                                        "hinge.v2.lambda")) / 25.15
+
+
+def ours(N: int, degree: int, coordinates: str, ref=None) -> dict:
     started, cpu = time.perf_counter(), time.process_time()
     _, ocp = oc.build_task("pendulum", "swing_up")
     ocp.coordinates = coordinates
@@ -37,7 +49,9 @@ def ours(N: int, degree: int, coordinates: str) -> dict:
     sol = tr.solve({"record_time": True})
     total, total_cpu = time.perf_counter() - started, time.process_time() - cpu
     st = sol.stats
+    state, lam = _errors(sol, ref) if ref is not None else (np.nan, np.nan)
     return {"objective": sol.objective, "iterations": sol.iterations, "solve_wall": st["t_wall_total"],
+            "state_error": state, "lambda_error": lam,
             "solve_cpu": st["t_proc_total"], "build": total - st["t_wall_total"], "total": total, "total_cpu": total_cpu,
             "size": (tr.nlp["x"].numel(), tr.nlp["g"].numel())}
 
@@ -69,7 +83,7 @@ def rockit(N: int, degree: int) -> dict:
     opti = ocp._method.opti
     return {"objective": float(sol.value(ocp.objective)), "iterations": int(st["iter_count"]),
             "solve_wall": st["t_wall_total"], "solve_cpu": st["t_proc_total"], "build": total - st["t_wall_total"],
-            "total": total, "total_cpu": total_cpu,
+            "total": total, "total_cpu": total_cpu, "state_error": np.nan, "lambda_error": np.nan,
             "size": (opti.nx, opti.ng)}
 
 
@@ -79,8 +93,10 @@ def main() -> None:
     ap.add_argument("--runs", type=int, default=3)
     ap.add_argument("--degree", type=int, default=3)
     args = ap.parse_args()
-    ref = swing_up_reference().objective
-    solvers = {"maximal": lambda N: ours(N, args.degree, "maximal"), "joint": lambda N: ours(N, args.degree, "joint"),
+    reference = swing_up_reference()
+    ref = reference.objective
+    solvers = {"maximal": lambda N: ours(N, args.degree, "maximal", reference),
+               "joint": lambda N: ours(N, args.degree, "joint", reference),
                "rockit": lambda N: rockit(N, args.degree)}
     for name, f in solvers.items():       # warm-up: imports, CasADi's first JIT-free set-up
         f(args.N[0])
@@ -94,8 +110,8 @@ def main() -> None:
           f"(Pontryagin objective {ref:.9f}); bench CPU {time.process_time() - cpu0:.1f} s")
     print("| N | solver | NLP vars x cons | iterations | IPOPT wall (s) | IPOPT CPU (s) | ms/iteration | build wall (s) "
           "| problem to solution wall / CPU (s) | objective | objective error | IPOPT wall / rockit's | IPOPT CPU / rockit's "
-          "| problem to solution CPU / rockit's |")
-    print("|---|---|---|---|---|---|---|---|---|---|---|---|---|---|")
+          "| problem to solution CPU / rockit's | state error | lambda error (relative, t > 0) |")
+    print("|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|")
     for N in args.N:
         rock = {k: np.median([r[k] for r in rows[("rockit", N)]]) for k in ("solve_wall", "solve_cpu", "total_cpu")}
         for name in solvers:
@@ -107,7 +123,8 @@ def main() -> None:
                   f"{med['solve_cpu']:.4f} | {1e3 * med['solve_wall'] / max(med['iterations'], 1):.2f} | "
                   f"{med['build']:.3f} | {med['total']:.3f} / {med['total_cpu']:.3f} | {med['objective']:.9f} | "
                   f"{abs(med['objective'] - ref):.1e} | {med['solve_wall'] / rock['solve_wall']:.2f} | "
-                  f"{med['solve_cpu'] / rock['solve_cpu']:.2f} | {med['total_cpu'] / rock['total_cpu']:.2f} |")
+                  f"{med['solve_cpu'] / rock['solve_cpu']:.2f} | {med['total_cpu'] / rock['total_cpu']:.2f} | "
+                  f"{rs[0]['state_error']:.1e} | {rs[0]['lambda_error']:.1e} |")
 
 
 if __name__ == "__main__":
