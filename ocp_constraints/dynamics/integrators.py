@@ -15,7 +15,7 @@ import numpy as np
 from ..mechanics.equations import SystemEquations
 from ..mechanics.fast_eval import Buffered
 from ..mechanics.rotations import UnitQuaternion
-from ..mechanics.state import projection_parts
+from ..mechanics.state import margin_function, projection_parts
 from .compiled import compiled, is_cached
 
 #: State size from which "auto" compiles the model functions. Measured (bench.peers.forward_duel, 10 s runs,
@@ -92,7 +92,7 @@ class ModelFunctions:
         margins, tols = [], []
         for b in eqs.bodies:
             rot, r = b.rotation, b.rotation_parameters
-            margins.append(_margin_function(rot)(r))
+            margins.append(margin_function(rot)(r))
             tols.append(1e-12 if isinstance(rot, UnitQuaternion) else rot.singularity_tolerance)
         self.tolerances = np.array(tols, float)
         margin = ca.Function("margins", [eqs.q], [ca.vertcat(*margins)])
@@ -111,20 +111,6 @@ class ModelFunctions:
         return self._keys
 
 
-_MARGINS: dict[tuple, ca.Function] = {}
-
-
-def _margin_function(rotation) -> ca.Function:
-    """``r -> margin`` of a body's rotation parameters: ``|g_1 . (g_2 x g_3)|`` of an Euler sequence
-    (its graph depends on the axes only, so it is built once per sequence), a quaternion's norm."""
-    key = ("quaternion",) if isinstance(rotation, UnitQuaternion) else ("euler", rotation.axes)
-    if key not in _MARGINS:
-        r = ca.SX.sym("r", rotation.n_parameters)
-        value = ca.norm_2(r) if key[0] == "quaternion" else ca.fabs(rotation.basis_volume(r))
-        _MARGINS[key] = ca.Function("margin_" + "_".join(key), [r], [value])
-    return _MARGINS[key]
-
-
 #: Integrators of models simulated before in this process, by their :func:`fingerprint` (the same
 #: scene built again, a sweep, a multi-start's re-integrations): the integrators, the loaded libraries
 #: and the projection's function are reused, not built again. At most _SHARED_SIZE, the least
@@ -139,7 +125,7 @@ def fingerprint(eqs: SystemEquations) -> str:
     position forms ``phi`` and the singularity margins, as one SX function (0.7 ms on the pendulum,
     against ~5 ms to build and serialize the simulation's MX functions). Equal models have equal
     fingerprints."""
-    margins = ca.vertcat(*[_margin_function(b.rotation)(b.rotation_parameters) for b in eqs.bodies])
+    margins = ca.vertcat(*[margin_function(b.rotation)(b.rotation_parameters) for b in eqs.bodies])
     return ca.Function("fingerprint", [eqs.q, eqs.u, eqs.t, eqs.inputs, eqs.input_rates],
                        [eqs.qdot, eqs.mass_matrix, eqs.forces, eqs.G, eqs.e, eqs.gamma, eqs.applied_power,
                         eqs.phi, margins]).serialize()

@@ -21,7 +21,7 @@ from typing import Callable
 import casadi as ca
 import numpy as np
 
-from ..mechanics.state import checked_start, null_space
+from ..mechanics.state import check_regular, checked_start, null_space
 from ..errors import InconsistentStateError, ModelError, ResourceLimitError
 from ..mechanics.equations import SystemEquations
 from ..mechanics.validate import check_constraint_values
@@ -95,11 +95,7 @@ def check_initial_state(eqs: SystemEquations, q: np.ndarray, u: np.ndarray, t0: 
         _check_finite_loads(eqs, q, u, t0, w)
         check_mass_matrix(eqs, q, G)
         return
-    start = 0
-    for b in eqs.bodies:
-        n = b.q.numel()
-        b.check_singularity(q[start:start + n], f"at t = {t0:g}")
-        start += n
+    check_regular(eqs, q, f"at t = {t0:g}")
     G, e, phi, pi, _ = (np.asarray(x, dtype=float) for x in eqs.constraint_functions(q, u, t0, w))
     names = eqs.constraint_names
     check_constraint_values(eqs, G, e, phi)

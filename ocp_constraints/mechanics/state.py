@@ -19,6 +19,36 @@ POSITION_TOL = 1e-9
 VELOCITY_TOL = 1e-9
 
 
+_MARGINS: dict[tuple, object] = {}
+
+
+def margin_function(rotation):
+    """``r -> margin`` of a body's rotation parameters (a CasADi Function): ``|g_1 . (g_2 x g_3)|``
+    of an Euler sequence (its graph depends on the axes only, so it is built once per sequence), a
+    quaternion's norm. The body is singular where the margin falls below the rotation's tolerance."""
+    import casadi as ca
+
+    key = ("quaternion",) if isinstance(rotation, UnitQuaternion) else ("euler", rotation.axes)
+    if key not in _MARGINS:
+        r = ca.SX.sym("r", rotation.n_parameters)
+        value = ca.norm_2(r) if key[0] == "quaternion" else ca.fabs(rotation.basis_volume(r))
+        _MARGINS[key] = ca.Function("margin_" + "_".join(key), [r], [value])
+    return _MARGINS[key]
+
+
+def check_regular(eqs: SystemEquations, q: np.ndarray, where: str) -> None:
+    """Every body's rotation away from its singularity at ``q``: the margins of :func:`margin_function`
+    evaluated numerically, the body's own check (and message) only for a body below its tolerance."""
+    start = 0
+    for b in eqs.bodies:
+        n = b.q.numel()
+        r = np.asarray(q[start + 3:start + n], dtype=float)
+        tol = 1e-12 if isinstance(b.rotation, UnitQuaternion) else b.rotation.singularity_tolerance
+        if not float(margin_function(b.rotation)(r)) >= tol:   # NaN too
+            b.check_singularity(q[start:start + n], where)
+        start += n
+
+
 def coordinate_vector(eqs: SystemEquations, coordinates: dict[str, float]) -> np.ndarray:
     """Coordinates in model order from a name -> value map (every coordinate required)."""
     names = eqs.model.coordinate_names
@@ -73,9 +103,7 @@ def consistent_state(eqs: SystemEquations, coordinates: dict[str, float], rates:
     """
     q = coordinate_vector(eqs, coordinates)
     inputs = input_values(eqs, inputs, t0)
-    for b in eqs.bodies:
-        sl = eqs.model.coordinate_names.index(b.coordinate_names[0])
-        b.check_singularity(q[sl : sl + b.q.numel()], f"at t = {t0:g}")
+    check_regular(eqs, q, f"at t = {t0:g}")
     G, e, phi, _, _ = (np.asarray(x) for x in eqs.constraint_functions(q, np.zeros(eqs.nu), t0, inputs))
     check_constraint_values(eqs, G, e, phi)
     phi = phi.ravel()
