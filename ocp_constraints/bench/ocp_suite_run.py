@@ -15,7 +15,8 @@ Per problem (:data:`PROBLEMS`):
    mapping is given (so it is the same local optimum: the swing-ups have several), else from the
    linear guess; its own mesh error is estimated by a second solve on half its intervals.
 
-Agreement is ``|J_fine - J_ref| / |J_ref|``. Times are wall (``*_s``) and CPU (``*_cpu_s``) seconds
+Agreement is ``|J_fine - J_ref| / |J_ref|``; on our fine mesh, the same with the reference's solve on
+half its intervals (our fine mesh: the same discrete problem in other coordinates). Times are wall (``*_s``) and CPU (``*_cpu_s``) seconds
 of this process. Results: ``ocp_suite.csv`` and ``ocp_suite.md``.
 """
 from __future__ import annotations
@@ -68,15 +69,15 @@ class SuiteProblem:
 
 WALKER_LINKS = [f"{n}.psi" for n in spatial.LINKS]
 PROBLEMS = [
-    SuiteProblem("acrobot", planar.acrobot, minimal.acrobot, "none", (20, 7), (40, 7),
+    SuiteProblem("acrobot", planar.acrobot, minimal.acrobot, "none", (40, 7), (80, 7),
                  _angles(["upper.psi", "lower.psi"]), ["elbow_motor"]),
-    SuiteProblem("cart_double_pendulum", planar.cart_double_pendulum, minimal.cart_double_pendulum, "none", (20, 7),
-                 (40, 7), _angles(["cart.x", "rod1.psi", "rod2.psi"]), ["push"]),
-    SuiteProblem("four_bar", planar.four_bar, minimal.four_bar, "rocker angle upright (one coordinate)", (20, 7),
-                 (40, 7), _angles(["crank.psi"]), ["motor"]),
-    SuiteProblem("rolling_disk", spatial.rolling_disk, minimal3d.rolling_disk, "none", (20, 7), (40, 7)),
-    SuiteProblem("quadrotor_load", spatial.quadrotor_load, minimal3d.quadrotor_load, "none", (20, 7), (40, 7)),
-    SuiteProblem("walker", spatial.walker, minimal3d.walker, "none", (20, 7), (40, 7),
+    SuiteProblem("cart_double_pendulum", planar.cart_double_pendulum, minimal.cart_double_pendulum, "none", (40, 7),
+                 (80, 7), _angles(["cart.x", "rod1.psi", "rod2.psi"]), ["push"]),
+    SuiteProblem("four_bar", planar.four_bar, minimal.four_bar, "rocker angle upright (one coordinate)", (40, 7),
+                 (80, 7), _angles(["crank.psi"]), ["motor"]),
+    SuiteProblem("rolling_disk", spatial.rolling_disk, minimal3d.rolling_disk, "none", (40, 7), (80, 7)),
+    SuiteProblem("quadrotor_load", spatial.quadrotor_load, minimal3d.quadrotor_load, "none", (40, 7), (80, 7)),
+    SuiteProblem("walker", spatial.walker, minimal3d.walker, "none", (40, 7), (80, 7),
                  _angles(WALKER_LINKS, [-1.0] * 5), ["ankle", "hip1", "hip2", "knee1", "knee2"]),
 ]
 
@@ -156,15 +157,20 @@ def run_problem(sp: SuiteProblem, N: int, runs: int, log=print, fine_mesh: tuple
     # The fine solve in joint coordinates where those solved the coarse problem (several times
     # faster), else in maximal coordinates; from the coarse solution of the same kind.
     via_joint = bool(joint) and joint[-1]["success"]
-    problem, coarse = kept_joint if via_joint else kept
-    problem = problem or sp.ours()
     Nf, df = fine_mesh or sp.fine
     started, cpu = time.perf_counter(), time.process_time()
-    try:
-        fine = problem.solve(oc.Radau(Nf, degree=df), warm_start=coarse, progress=False)
-    except oc.OCPSolveError as exc:
-        fine = exc.solution
-    _stop_if_interrupted(fine)
+    for problem, coarse in ([kept_joint] if via_joint else []) + [kept]:
+        try:
+            fine = (problem or sp.ours()).solve(oc.Radau(Nf, degree=df), warm_start=coarse, progress=False)
+        except oc.OCPSolveError as exc:
+            fine = exc.solution
+        _stop_if_interrupted(fine)
+        if fine.success:
+            break
+        if via_joint:           # the joint form failed on the fine mesh: maximal coordinates, from their coarse solution
+            log(f"  {sp.name}: fine mesh in joint coordinates: {fine.status} after {fine.iterations} iterations; "
+                f"solved again in maximal coordinates")
+            via_joint = False
     row.update(fine_setting=f"Radau{df} N={Nf}{', joint coordinates' if via_joint else ''}", fine_success=fine.success,
                fine_iterations=fine.iterations, fine_objective=fine.objective, fine_s=time.perf_counter() - started,
                fine_cpu_s=time.process_time() - cpu)
@@ -176,19 +182,21 @@ def run_problem(sp: SuiteProblem, N: int, runs: int, log=print, fine_mesh: tuple
     J = ref["objective"]
     row.update(reference_setting=ref["setting"] + (", from our fine solution" if start else ", from the linear guess"),
                reference_success=ref["success"], reference_objective=J,
-               reference_mesh_error=abs(J - half["objective"]) / abs(J),
+               reference_mesh_error=abs(J - half["objective"]) / abs(J), reference_half_objective=half["objective"],
+               agreement_equal_mesh=abs(fine.objective - half["objective"]) / abs(half["objective"]),
                reference_from_guess_objective=from_guess["objective"], reference_from_guess_success=from_guess["success"],
                agreement=abs(fine.objective - J) / abs(J))
     log(f"  {sp.name}: ours {row['fine_setting']}: J = {fine.objective:.10g} ({fine.iterations} iterations, "
         f"{row['fine_s']:.1f} s); reference {ref['setting']}: J = {J:.10g} (mesh error {row['reference_mesh_error']:.1e}); "
-        f"agreement {row['agreement']:.1e}; from the linear guess J = {from_guess['objective']:.10g}")
+        f"agreement {row['agreement']:.1e} (on our mesh {row['agreement_equal_mesh']:.1e}); from the linear guess J = {from_guess['objective']:.10g}")
     return row
 
 
 RUN_FIELDS = ["success", "status", "iterations", "objective", "solve_s", "cpu_s", "ipopt_s"]
 COLUMNS = (["problem", "guess", "N"] + [f"{w}_{k}" for w in ("ours", "joint", "rockit") for k in RUN_FIELDS]
            + ["fine_setting", "fine_success", "fine_iterations", "fine_objective", "fine_s", "fine_cpu_s", "reference_setting",
-              "reference_success", "reference_objective", "reference_mesh_error", "agreement",
+              "reference_success", "reference_objective", "reference_mesh_error", "agreement", "reference_half_objective",
+              "agreement_equal_mesh",
               "reference_from_guess_objective", "reference_from_guess_success"])
 
 
@@ -221,15 +229,16 @@ def markdown(rows: list[dict], runs: int) -> str:
     head = ("| problem | guess | ours: success, iterations | ours: time s (CPU s) | ours: J | ours, joint coordinates: "
             "success, iterations | joint: time s (CPU s) | joint: J | rockit: success, iterations | rockit: time s (CPU s) "
             "| rockit: J | time / rockit's, ours (CPU) | joint (CPU) | ours, fine mesh: J | reference J (its mesh error) "
-            "| agreement |")
-    lines = [head, "|" + "---|" * 16]
+            "| agreement | agreement on our fine mesh |")
+    lines = [head, "|" + "---|" * 17]
     for r in rows:
         lines.append(
             f"| {r['problem']} | {r['guess']} | {_cell(r, 'ours')} | {_cell(r, 'joint')} | {_cell(r, 'rockit')} | "
             f"{_ratio(r, 'ours', 'solve_s')} ({_ratio(r, 'ours', 'cpu_s')}) | "
             f"{_ratio(r, 'joint', 'solve_s')} ({_ratio(r, 'joint', 'cpu_s')}) | "
             f"{r['fine_objective']:.10g} ({r['fine_setting']}{'' if r['fine_success'] else ', failed'}) | "
-            f"{r['reference_objective']:.10g} ({r['reference_mesh_error']:.0e}) | {r['agreement']:.1e} |")
+            f"{r['reference_objective']:.10g} ({r['reference_mesh_error']:.0e}) | {r['agreement']:.1e} | "
+            f"{r['agreement_equal_mesh']:.1e} |")
     return "\n".join(lines) + "\n"
 
 
@@ -258,12 +267,14 @@ def run_suite(out, runs: int = 3, N: int = 20, only: list[str] | None = None, re
     started = time.perf_counter()
     if not available("rockit"):
         log("  rockit is not installed (pip install rockit-meco, the bench extra): its columns stay empty")
-    rows = []
+    new = {}
     for sp in PROBLEMS:
         if only and sp.name not in only:
             continue
         log(f"== {sp.name}")
-        rows.append(run_problem(sp, N, runs, log, fine_mesh, coordinates))
+        new[sp.name] = run_problem(sp, N, runs, log, fine_mesh, coordinates)
+    earlier = _earlier_rows(folder, only)          # read now: another run may have written it meanwhile
+    rows = [new.get(sp.name, earlier.get(sp.name)) for sp in PROBLEMS if sp.name in new or sp.name in earlier]
     m = machine()
     minutes = (time.perf_counter() - started) / 60
     text = (f"Regenerated by `ocp-constraints bench --ocp-suite{' --readme ' + str(readme) if readme else ''}` "
@@ -272,7 +283,10 @@ def run_suite(out, runs: int = 3, N: int = 20, only: list[str] | None = None, re
             f"and in brackets CPU seconds; ours (maximal coordinates, and joint coordinates) and rockit (minimal "
             f"coordinates) all Radau collocation of degree 3 on N = {N} intervals from the same guess. J: the objective. "
             f"Agreement: |J_fine - J_ref| / |J_ref|, the reference being minimal-coordinate collocation derived "
-            f"separately (ocp_suite_minimal*.py).\n\n" + markdown(rows, runs))
+            f"separately (ocp_suite_minimal*.py) on twice our fine mesh's intervals; its mesh error is |J_ref - J_half| / "
+            f"|J_ref| with J_half its solve on our fine mesh, and 'agreement on our fine mesh' is |J_fine - J_half| / "
+            f"|J_half|." + (f" Rows of {', '.join(earlier)} are from an earlier run into the same folder." if earlier
+                            else "") + "\n\n" + markdown(rows, runs))
     write_atomic(folder / "ocp_suite.csv", csv_text(rows).encode())
     write_atomic(folder / "ocp_suite.md", text.encode())
     if readme is not None:
@@ -280,6 +294,26 @@ def run_suite(out, runs: int = 3, N: int = 20, only: list[str] | None = None, re
         log(f"  {readme}: the suite's table replaced")
     log(f"ocp suite finished in {minutes:.1f} min; results in {folder}")
     return rows
+
+
+def _earlier_rows(folder, only) -> dict:
+    """With ``only``: the other problems' rows of ``folder``'s ``ocp_suite.csv``, if any, to keep in the table."""
+    path = folder / "ocp_suite.csv"
+    if not only or not path.exists():
+        return {}
+
+    def value(text: str):
+        if text in ("True", "False"):
+            return text == "True"
+        for kind in (int, float):
+            try:
+                return kind(text)
+            except ValueError:
+                pass
+        return text
+
+    with path.open() as fh:
+        return {r["problem"]: {k: value(v) for k, v in r.items()} for r in csv.DictReader(fh) if r["problem"] not in only}
 
 
 def splice(readme, text: str | None) -> None:
