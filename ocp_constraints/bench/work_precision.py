@@ -222,8 +222,11 @@ def plot_multiplier_floor(path: Path, rows: list[Row]) -> str:
             who = r.scheme if r.kind == "sim" else f"peer {r.scheme}"
             curves.setdefault(f"{r.scene}: {who}", []).append((r.resolution, r.lambda_err))
     fig, ax = plt.subplots(figsize=(8, 5.5))
+    scenes = sorted({name.split(":")[0] for name in curves})
+    colour = {sc: plt.get_cmap("tab10")(k % 10) for k, sc in enumerate(scenes)}   # one colour a scene
     for name, pts in sorted(curves.items()):
-        ax.loglog(*zip(*sorted(pts)), "s--" if "peer" in name else ("o-" if "adams" in name else "^:"), label=name, ms=3)
+        style = "s--" if "peer" in name else ("o-" if "adams" in name else "^:")   # one style a method
+        ax.loglog(*zip(*sorted(pts)), style, color=colour[name.split(":")[0]], label=name, ms=3)
     if ax.lines:
         ax.invert_xaxis()
         ax.legend(fontsize=6, ncol=2)
