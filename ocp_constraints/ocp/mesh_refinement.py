@@ -156,10 +156,12 @@ def solve_to_tolerance(problem, tolerance, method=None, ipopt_options: dict | No
     """
     tol = check_tolerance(tolerance)
     scheme = start_scheme(method)
-    if getattr(problem, "coordinates", "maximal") != "maximal":
+    # The refinement transcribes in maximal coordinates ("auto" included); joint coordinates, asked
+    # for explicitly, are refused rather than silently replaced.
+    if getattr(problem, "coordinates", "maximal") == "joint":
         raise ModelError(f"mesh refinement to a tolerance transcribes in maximal coordinates only; problem "
-                         f"'{problem.model.name}' asks for coordinates={problem.coordinates!r}: set "
-                         f"problem.coordinates = 'maximal', or solve on a fixed mesh")
+                         f"'{problem.model.name}' asks for coordinates='joint': set problem.coordinates = "
+                         f"'maximal' (or 'auto'), or solve on a fixed mesh")
     options = dict(ipopt_options or {})
     history: list[dict] = []
     record = {"tolerance": tol, "quantities_refined_on": list(GATED), "met": False, "history": history}
