@@ -2,7 +2,8 @@
 power, :func:`~ocp_constraints.output.plots.joint_figure`); the knee's contact loads, predicted and
 measured, over the gait phases.
 
-Arrays in, figures out (matplotlib, Agg): the biomechanics and the tasks compute, this module draws.
+Arrays in, figures out (matplotlib's Agg canvas, no pyplot; see :mod:`.plots` for what keeps them cheap):
+the biomechanics and the tasks compute, this module draws.
 """
 from __future__ import annotations
 
@@ -10,25 +11,25 @@ from pathlib import Path
 
 import numpy as np
 
-from .plots import file_name, joint_figure, pyplot, save
+from .plots import file_name, joint_figure, new_figure, save
 
 
 def write_gait_plots(out: Path, t, joints: list[tuple[str, str | None, dict[str, np.ndarray]]],
                      loads: dict[str, np.ndarray]) -> list[str]:
     """``gait_<joint>.png`` per leg joint: ``(joint, load channel or None, {coordinate label: generalized force})``."""
     written: list[str] = []
-    for joint, prefix, generalized in joints:
+    fig = None
+    for joint, prefix, generalized in joints:     # one figure, drawn over joint by joint (same panels)
         fig = joint_figure(t, loads, prefix or joint, ("generalized force [N m or N]", generalized),
-                           title=f"{joint}: generalized forces; constraint load on the child at its point")
-        save(fig, out, f"gait_{file_name(joint)}.png", written, dpi=100)
+                           title=f"{joint}: generalized forces; constraint load on the child at its point", fig=fig)
+        save(fig, out, f"gait_{file_name(joint)}.png", written, dpi=100, close=False)
     return written
 
 
 def knee_figure(t, predicted: dict[str, np.ndarray], label: str, measured=None, phases=()):
     """Medial, lateral and total contact force (body weights): predicted, measured (``(t, {name: values})``)
     and the gait phases shaded (``[(t0, t1, "stance" or "swing"), ...]``)."""
-    plt = pyplot()
-    fig, axes = plt.subplots(3, 1, figsize=(8, 8.5), sharex=True)
+    fig, axes = new_figure(8, 8.5, 3)
     colors = {"stance": "#d9e8f5", "swing": "#fbe6cf"}
     for ax, (name, y) in zip(axes, predicted.items()):
         for a, b, phase in phases:
@@ -39,7 +40,6 @@ def knee_figure(t, predicted: dict[str, np.ndarray], label: str, measured=None, 
             keep = (tm >= t[0]) & (tm <= t[-1])
             ax.plot(tm[keep], cols[name][keep], "k--", lw=1.5, label="measured (eTibia)")
         ax.set(ylabel=f"{name} contact force [BW]")
-        ax.grid(alpha=0.3)
     handles, labels = axes[0].get_legend_handles_labels()
     import matplotlib.patches as mpatches
 
@@ -49,5 +49,4 @@ def knee_figure(t, predicted: dict[str, np.ndarray], label: str, measured=None, 
     axes[0].legend(handles, labels, fontsize=8, loc="upper right")
     axes[0].set_title("knee contact forces over the gait cycle")
     axes[-1].set(xlabel="t [s]")
-    fig.tight_layout()
     return fig

@@ -14,10 +14,18 @@
   the balance error ``E - E0 - W`` below.
 
 Every figure is written whole (:func:`~ocp_constraints.output.files.write_atomic`).
+
+Cost: a run pays for matplotlib only when it writes a plot, and then for its ``Figure`` and Agg
+canvas alone (no pyplot, no GUI backend). Each figure is drawn once, by the save: the panels sit
+at fixed margins in inches (:func:`new_figure`) instead of a ``tight_layout`` pass, which draws
+the whole figure a second time to measure it. Figures of the same shape (the joints of a gait
+trial, the load channels of a scene) reuse one figure (:func:`clear`): its axes and tick
+artists, the most expensive part of a first draw, are made once.
 """
 from __future__ import annotations
 
 import io
+import sys
 from pathlib import Path
 
 import numpy as np
@@ -34,10 +42,14 @@ SPEED_GROUPS = [
     ("velocity", "center-of-mass velocity [m/s]", ("vbar_x", "vbar_y", "vbar_z")),
     ("angular", "angular velocity, angle rates [rad/s]", ("omega_x", "omega_y", "omega_z", "psi_dot", "theta_dot", "phi_dot")),
 ]
+#: Fixed margins [in]: left holds 7-character tick labels and the y label, top the title, bottom the
+#: x tick labels and label, GAP the offset text ("1e-9") between panels that share their x axis.
+LEFT, RIGHT, TOP, BOTTOM, GAP = 0.95, 0.2, 0.42, 0.55, 0.3
 
 
 def pyplot():
-    """matplotlib's pyplot on the Agg backend (no display needed)."""
+    """matplotlib's pyplot on the Agg backend (no display needed); for scripts. The library draws
+    with :func:`new_figure`, which does not import pyplot."""
     import matplotlib
 
     matplotlib.use("Agg")
@@ -46,12 +58,53 @@ def pyplot():
     return plt
 
 
-def save(fig, out: Path, name: str, written: list[str], dpi: int = 110) -> None:
-    """Write ``fig`` as ``out/name`` (whole), close it and append the name to ``written``."""
-    plt = pyplot()
+def new_figure(width: float, height: float, rows: int = 1, height_ratios=None):
+    """A figure of ``width`` x ``height`` inches on an Agg canvas, ``rows`` panels over one shared x axis
+    at fixed margins (module docs), grid on. Returns ``(figure, [axes, ...])``."""
+    from matplotlib.backends.backend_agg import FigureCanvasAgg
+    from matplotlib.figure import Figure
+
+    fig = Figure(figsize=(width, height))
+    FigureCanvasAgg(fig)
+    axes = list(fig.subplots(rows, 1, sharex=True, squeeze=False,
+                             gridspec_kw={"height_ratios": height_ratios} if height_ratios else None)[:, 0])
+    panel = (height - TOP - BOTTOM - GAP * (rows - 1)) / rows          # mean panel height [in]
+    fig.subplots_adjust(left=LEFT / width, right=1 - RIGHT / width, top=1 - TOP / height, bottom=BOTTOM / height,
+                        hspace=GAP / panel)
+    for ax in axes:
+        ax.grid(alpha=0.3)
+    return fig, axes
+
+
+def clear(fig) -> None:
+    """Empty a figure of :func:`new_figure` for the next one of its shape: lines, notes, legends, titles and
+    labels go; axes, ticks and grid stay. Colours start again at C0 and the limits follow the new data."""
+    for ax in fig.axes:
+        for artist in [*ax.lines, *ax.texts]:
+            artist.remove()
+        if ax.get_legend() is not None:
+            ax.get_legend().remove()
+        ax.set_prop_cycle(None)
+        ax.set(title="", ylabel="", ylim=(0, 1))    # the limits of a new (empty) axes
+        ax.relim()
+        ax.set_autoscaley_on(True)
+
+
+def _figure(fig, width: float, height: float, rows: int):
+    """``fig`` emptied for reuse when it has this size and number of panels, else a new figure."""
+    if fig is not None and len(fig.axes) == rows and tuple(fig.get_size_inches()) == (width, height):
+        clear(fig)
+        return fig, list(fig.axes)
+    return new_figure(width, height, rows)
+
+
+def save(fig, out: Path, name: str, written: list[str], dpi: int = 110, close: bool = True) -> None:
+    """Write ``fig`` as ``out/name`` (whole; one draw) and append the name to ``written``. ``close=False``
+    keeps a figure to be reused (:func:`clear`)."""
     buf = io.BytesIO()
     fig.savefig(buf, format="png", dpi=dpi)
-    plt.close(fig)
+    if close and "matplotlib.pyplot" in sys.modules:     # a pyplot figure (a script's) leaves pyplot's list
+        sys.modules["matplotlib.pyplot"].close(fig)
     write_atomic(Path(out) / name, buf.getvalue())
     written.append(name)
 
@@ -61,24 +114,26 @@ def file_name(label: str) -> str:
     return "".join(c if c.isalnum() or c in "._-" else "_" for c in label.replace("@", "_at_"))
 
 
+def _lines(ax, t, series: dict[str, np.ndarray], **style) -> None:
+    """One Line2D per series from a single plot call (one 2-D array)."""
+    if series:
+        ax.plot(t, np.column_stack([np.asarray(v, float) for v in series.values()]), label=list(series), **style)
+
+
 def grouped_panels(t, columns: dict[str, np.ndarray], groups, title: str):
     """One panel per unit group that has columns; None if none has."""
-    plt = pyplot()
     found = [(label, {k: v for k, v in columns.items() if "." in k and k.rsplit(".", 1)[1] in suffixes})
              for _, label, suffixes in groups]
     found = [(label, cols) for label, cols in found if cols]
     if not found:
         return None
-    fig, axes = plt.subplots(len(found), 1, figsize=(8, 2.6 + 2.2 * len(found)), sharex=True, squeeze=False)
-    for ax, (label, cols) in zip(axes[:, 0], found):
-        for k, v in cols.items():
-            ax.plot(t, v, label=k)
+    fig, axes = new_figure(8, 2.6 + 2.2 * len(found), len(found))
+    for ax, (label, cols) in zip(axes, found):
+        _lines(ax, t, cols)
         ax.set(ylabel=label)
-        ax.grid(alpha=0.3)
         ax.legend(fontsize=7, ncol=3 if len(cols) > 6 else 2, loc="best")
-    axes[0, 0].set_title(title)
-    axes[-1, 0].set(xlabel="t [s]")
-    fig.tight_layout()
+    axes[0].set_title(title)
+    axes[-1].set(xlabel="t [s]")
     return fig
 
 
@@ -87,12 +142,11 @@ def energy_figure(t, energy: dict[str, np.ndarray]):
 
     ``energy``: ``E`` (J), ``constraint_work`` and ``applied_work`` (J, from ``t = 0``).
     """
-    plt = pyplot()
     E = np.asarray(energy["E"], float)
     Wc = np.asarray(energy.get("constraint_work", np.zeros_like(E)), float)
     Wa = np.asarray(energy.get("applied_work", np.zeros_like(E)), float)
     W = Wc + Wa
-    fig, (a1, a2) = plt.subplots(2, 1, figsize=(8, 6), sharex=True, gridspec_kw={"height_ratios": [3, 1.4]})
+    fig, (a1, a2) = new_figure(8, 6, 2, height_ratios=[3, 1.4])
     a1.plot(t, E - E[0], lw=2.5, label="E - E(0)  (E = T + U)")
     a1.plot(t, W, "k--", lw=1.4, label="W = work of constraint + applied loads")
     a1.plot(t, Wc, lw=1, label="work of the constraint loads (int -lambda e dt, eq. 27)")
@@ -102,23 +156,16 @@ def energy_figure(t, energy: dict[str, np.ndarray]):
     a1.legend(fontsize=8)
     a2.plot(t, E - E[0] - W, color="C3")
     a2.set(xlabel="t [s]", ylabel="E - E(0) - W [J]")
-    for ax in (a1, a2):
-        ax.grid(alpha=0.3)
-    fig.tight_layout()
     return fig
 
 
 def drive_figure(t, name: str, lam, power):
     """A driven constraint: its multiplier (the motor torque or force) and its power ``-lambda e`` (eq. 27)."""
-    plt = pyplot()
-    fig, (a1, a2) = plt.subplots(2, 1, figsize=(8, 5.5), sharex=True)
+    fig, (a1, a2) = new_figure(8, 5.5, 2)
     a1.plot(t, lam, color="C0")
     a1.set(ylabel=f"{name}.lambda [N m or N]", title=f"{name}: multiplier of a prescribed motion and its power")
     a2.plot(t, power, color="C1")
     a2.set(xlabel="t [s]", ylabel="power -lambda e [W]")
-    for ax in (a1, a2):
-        ax.grid(alpha=0.3)
-    fig.tight_layout()
     return fig
 
 
@@ -126,27 +173,30 @@ def _vector_panel(ax, t, loads: dict, prefix: str, kind: str, ylabel: str) -> No
     comps = [loads.get(f"{prefix}.{kind}_{a}") for a in "xyz"]
     if any(c is None for c in comps):
         return
-    for a, c in zip("xyz", comps):
-        ax.plot(t, c, lw=1.2, label=f"{kind}_{a}")
-    ax.plot(t, np.sqrt(sum(np.asarray(c, float) ** 2 for c in comps)), "k", lw=1.8, alpha=0.7, label=f"|{kind}|")
+    comps = np.column_stack([np.asarray(c, float) for c in comps])
+    ax.plot(t, comps, lw=1.2, label=[f"{kind}_{a}" for a in "xyz"])
+    ax.plot(t, np.sqrt((comps ** 2).sum(axis=1)), "k", lw=1.8, alpha=0.7, label=f"|{kind}|")
     ax.set(ylabel=ylabel)
 
 
-def joint_figure(t, loads: dict[str, np.ndarray], prefix: str, extra=None, title: str | None = None):
+def _peak(ax) -> float:
+    """Largest |value| of the lines of ``ax`` (0 without lines)."""
+    return max([float(np.abs(np.asarray(ln.get_ydata(), float)).max(initial=0.0)) for ln in ax.lines] or [0.0])
+
+
+def joint_figure(t, loads: dict[str, np.ndarray], prefix: str, extra=None, title: str | None = None, fig=None):
     """``F_c`` at the joint's point, ``M_c`` about it (fixed basis) and the power ``P`` of one load channel.
 
     ``extra``: an optional ``(ylabel, {label: values})`` drawn in a first panel (e.g. the generalized
-    forces of a gait joint's coordinates).
+    forces of a gait joint's coordinates). ``fig``: an earlier joint figure saved with ``close=False``,
+    drawn over when it has the same panels (:func:`clear`).
     """
-    plt = pyplot()
     n = 3 + (extra is not None)
-    fig, axes = plt.subplots(n, 1, figsize=(8, 2.3 * n + 1.0), sharex=True)
-    axes = list(axes)
+    fig, axes = _figure(fig, 8, 2.3 * n + 1.0, n)
     if extra is not None:
         ylabel, series = extra
         ax = axes.pop(0)
-        for k, v in series.items():
-            ax.plot(t, v, label=k)
+        _lines(ax, t, series)
         ax.set(ylabel=ylabel)
     _vector_panel(axes[0], t, loads, prefix, "F", "constraint force F_c [N]")
     _vector_panel(axes[1], t, loads, prefix, "M", "constraint moment M_c [N m]")
@@ -154,22 +204,19 @@ def joint_figure(t, loads: dict[str, np.ndarray], prefix: str, extra=None, title
     if power is not None:
         axes[2].plot(t, power, color="C3", label="P = F_c . v_C + M_c . omega")
     axes[2].set(xlabel="t [s]", ylabel="power P [W]")
-    scale = max([1.0] + [float(np.abs(np.asarray(ln.get_ydata(), float)).max(initial=0.0))
-                         for ax in axes[:2] for ln in ax.lines])
+    scale = max(1.0, _peak(axes[0]), _peak(axes[1]))
     for ax, what in zip(axes, ("F_c", "M_c", "P")):
-        peak = max([float(np.abs(np.asarray(ln.get_ydata(), float)).max(initial=0.0)) for ln in ax.lines] or [0.0])
+        peak = _peak(ax)
         if ax.lines and peak < 1e-9 * scale:       # zero to round-off (e.g. a hinge's power, eq. 27): say so
             ax.set_ylim(-1, 1)
             note = f"{what} = 0" + ("" if peak == 0 else f" to round-off (largest |value| {peak:.1e})")
             ax.text(0.5, 0.75, note, transform=ax.transAxes, ha="center", va="center", fontsize=9, color="0.3",
                     bbox={"facecolor": "white", "edgecolor": "none", "alpha": 0.8})
     for ax in fig.axes:
-        ax.grid(alpha=0.3)
         if ax.lines:
             ax.legend(fontsize=7, ncol=4, loc="best")
     title = title or f"{prefix}: constraint load on the body at its point (fixed basis, eqs. 26-27)"
     fig.axes[0].set_title(title, fontsize=max(8.0, min(12.0, 12.0 * 72 / len(title))))
-    fig.tight_layout()
     return fig
 
 
@@ -191,17 +238,15 @@ def write_plots(out: Path, t: np.ndarray, states: dict[str, np.ndarray], loads: 
     if fig is not None:
         save(fig, out, "speeds.png", written)
     if inputs:
-        plt = pyplot()
-        fig, ax = plt.subplots(figsize=(8, 4))
-        for n in inputs:
-            ax.plot(t, states[n], label=n)
+        fig, (ax,) = new_figure(8, 4)
+        _lines(ax, t, {n: states[n] for n in inputs})
         ax.set(xlabel="t [s]", ylabel="input [N m or N]", title="actuator inputs")
-        ax.grid(alpha=0.3)
         ax.legend(fontsize=7, ncol=2)
-        fig.tight_layout()
         save(fig, out, "inputs.png", written)
-    for prefix in joints:
-        save(joint_figure(t, loads, prefix), out, f"loads_{file_name(prefix)}.png", written)
+    fig = None
+    for prefix in joints:           # one figure for all load channels, drawn over (same panels)
+        fig = joint_figure(t, loads, prefix, fig=fig)
+        save(fig, out, f"loads_{file_name(prefix)}.png", written, close=False)
     for name, (lam, power) in (drives or {}).items():
         save(drive_figure(t, name, lam, power), out, f"drive_{file_name(name)}.png", written)
     if energy:

@@ -1,0 +1,99 @@
+"""The run plots (output/plots.py, output/joint_plots.py): what each panel shows, that a figure drawn over
+(reused for the next joint) gives the same PNG bytes as a new figure of the same data, and that drawing
+needs neither pyplot nor, before a plot is written, matplotlib at all."""
+from __future__ import annotations
+
+import io
+import subprocess
+import sys
+
+import numpy as np
+
+
+def _loads(t, prefix: str, scale: float, zero_power: bool = False) -> dict[str, np.ndarray]:
+    out = {}
+    for i, a in enumerate("xyz"):
+        out[f"{prefix}.F_{a}"] = scale * np.sin((i + 1) * t)
+        out[f"{prefix}.M_{a}"] = 0.1 * scale * np.cos((i + 2) * t)
+    out[f"{prefix}.power"] = np.zeros_like(t) if zero_power else scale * t * np.sin(t)
+    return out
+
+
+def _png(fig) -> bytes:
+    buf = io.BytesIO()
+    fig.savefig(buf, format="png", dpi=30)
+    return buf.getvalue()
+
+
+def test_a_joint_figure_shows_force_components_their_magnitude_moment_and_power():
+    from ocp_constraints.output.plots import joint_figure
+
+    t = np.linspace(0.0, 2.0, 21)
+    loads = _loads(t, "hip@femur", 300.0)
+    fig = joint_figure(t, loads, "hip@femur", ("generalized force [N m or N]", {"hip_flexion": t ** 2, "hip_adduction": -t}))
+    gen, force, moment, power = fig.axes
+    assert [ln.get_label() for ln in gen.lines] == ["hip_flexion", "hip_adduction"]
+    assert [ln.get_label() for ln in force.lines] == ["F_x", "F_y", "F_z", "|F|"]
+    assert [ln.get_label() for ln in moment.lines] == ["M_x", "M_y", "M_z", "|M|"]
+    assert [ax.get_ylabel() for ax in fig.axes] == ["generalized force [N m or N]", "constraint force F_c [N]",
+                                                    "constraint moment M_c [N m]", "power P [W]"]
+    assert power.get_xlabel() == "t [s]" and all(ax.get_legend() is not None for ax in fig.axes)
+    # |F| against the components summed by hand (not through the plotting code's own array)
+    by_hand = [np.hypot(np.hypot(300 * np.sin(t[k]), 300 * np.sin(2 * t[k])), 300 * np.sin(3 * t[k])) for k in range(t.size)]
+    assert np.allclose(force.lines[3].get_ydata(), by_hand, rtol=1e-14)
+    assert np.array_equal(gen.lines[0].get_ydata(), t ** 2)
+    from matplotlib.colors import to_hex
+
+    assert [to_hex(c.get_color()) for c in force.lines[:3]] == ["#1f77b4", "#ff7f0e", "#2ca02c"]   # C0, C1, C2
+
+
+def test_a_figure_drawn_over_is_the_same_png_as_a_new_one():
+    """Reuse must not carry anything over: limits, colours, legends and the zero note follow the new data."""
+    from ocp_constraints.output.plots import joint_figure
+
+    t = np.linspace(0.0, 1.0, 15)
+    cases = [("knee", _loads(t, "knee", 800.0), {"knee_angle": 40 * np.sin(3 * t)}),
+             ("hinge", _loads(t, "hinge", 2.0, zero_power=True), {"a": t, "b": -t, "c": t ** 3}),
+             ("ankle", _loads(t, "ankle", 5e4), {"ankle_angle": -t})]
+    fig = None
+    for prefix, loads, gen in cases:
+        fig = joint_figure(t, loads, prefix, ("generalized force [N m or N]", gen), title=prefix, fig=fig)
+        reused = _png(fig)
+        fresh = joint_figure(t, loads, prefix, ("generalized force [N m or N]", gen), title=prefix)
+        assert fresh is not fig and reused == _png(fresh), prefix
+        assert len(fig.axes) == 4 and len(fig.axes[0].lines) == len(gen)
+        notes = [x.get_text() for x in fig.axes[3].texts]
+        assert notes == (["P = 0"] if prefix == "hinge" else []), prefix          # the zero panel says so, once
+
+
+def test_write_plots_names_every_figure_at_its_size(tmp_path):
+    from ocp_constraints.output.plots import write_plots
+
+    t = np.linspace(0.0, 1.0, 11)
+    states = {"body.x": t, "body.y": -t, "body.psi": 0.1 * t, "body.vbar_x": np.ones_like(t), "body.omega_z": t, "u": t}
+    loads = {**_loads(t, "j1", 3.0), **_loads(t, "j2", 4.0)}
+    energy = {"E": 1 + 1e-9 * t, "constraint_work": 1e-9 * t}
+    names = write_plots(tmp_path, t, states, loads, ["j1", "j2"], energy, {"drive": (t, -t)}, ["u"])
+    assert names == ["coordinates.png", "speeds.png", "inputs.png", "loads_j1.png", "loads_j2.png", "drive_drive.png",
+                     "energy.png"]
+    sizes = {}
+    for name in names:
+        head = (tmp_path / name).read_bytes()[:24]
+        assert head[:8] == b"\x89PNG\r\n\x1a\n"
+        sizes[name] = (int.from_bytes(head[16:20], "big"), int.from_bytes(head[20:24], "big"))
+    # figsize in inches times 110 dpi: coordinates two panels (8 x 7.0), a load figure three (8 x 7.9)
+    assert sizes["coordinates.png"] == (880, 770) and sizes["loads_j1.png"] == sizes["loads_j2.png"] == (880, 869)
+    assert sizes["energy.png"] == (880, 660) and sizes["inputs.png"] == (880, 440)
+
+
+def test_plots_import_matplotlib_only_to_draw_and_never_pyplot(tmp_path):
+    code = ("import sys, numpy as np\n"
+            "from ocp_constraints.output import plots, joint_plots, report\n"
+            "assert not [m for m in sys.modules if m.startswith('matplotlib')], 'matplotlib imported early'\n"
+            "t = np.linspace(0, 1, 5)\n"
+            "l = {f'j.{k}_{a}': t for k in 'FM' for a in 'xyz'}\n"
+            f"joint_plots.write_gait_plots({str(tmp_path)!r}, t, [('j', None, {{'q': t}})], l)\n"
+            "assert 'matplotlib.figure' in sys.modules and 'matplotlib.pyplot' not in sys.modules\n")
+    proc = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=120)
+    assert proc.returncode == 0, proc.stderr[-2000:]
+    assert (tmp_path / "gait_j.png").is_file()
