@@ -115,6 +115,7 @@ def test_a_hinge_written_by_hand_stays_a_constraint_and_gives_the_same_optimum()
     # The pendulum's hinge as plain constraints (E_k . v_A = 0, E1/E2 . omega = 0): no joint map,
     # so joint coordinates leave the rod's six coordinates and the five multipliers as they are.
     _, library = oc.build_task("pendulum", "swing_up")
+    library.coordinates = "maximal"
     model = oc.Model("by_hand", gravity=(0.0, -9.81, 0.0))
     rod = model.add_body("rod", 1.0, np.diag([1 / 12, 0.0, 1 / 12]), rotation="321")
     A = rod.point("A", (0.0, 0.5, 0.0))
@@ -167,7 +168,7 @@ def test_a_bound_on_a_hinge_load_is_active_in_joint_coordinates():
 def test_unknown_coordinates_are_refused_by_name():
     model = oc.Model("m")
     model.add_body("b", 1.0, np.eye(3) * 0.1)
-    with pytest.raises(ModelError, match="coordinates must be 'maximal' or 'joint'"):
+    with pytest.raises(ModelError, match="coordinates must be one of auto, maximal, joint"):
         oc.OptimalControlProblem(model, coordinates="minimal")
 
 

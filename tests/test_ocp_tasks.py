@@ -9,7 +9,7 @@ from ocp_constraints.ocp.schemes import Radau
 
 
 def _energy(sol) -> np.ndarray:
-    f = sol.transcription.eqs.energy_function
+    f = sol.trajectory.eqs.energy_function      # the bodies' equations, in either NLP coordinates
     return np.array([sum(float(v) for v in f(q, u)) for q, u in zip(sol.trajectory.q, sol.trajectory.u)])
 
 

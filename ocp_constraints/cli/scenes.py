@@ -50,9 +50,10 @@ def add_scene_parsers(sub) -> None:
                    help="hp mesh refinement until the estimated error is at most TOL (states in SI units, "
                         "multipliers relative to the largest load), starting from --intervals N (default 10 "
                         "here) of --degree D (default 3); summary.json gets the final mesh, the estimates and the history")
-    o.add_argument("--coordinates", default="maximal", choices=["maximal", "joint"],
-                   help="NLP coordinates: every body's (maximal, default) or the joints' (joint: bodies on revolute, "
-                        "prismatic and weld joints placed by their joint coordinates; same results files)")
+    o.add_argument("--coordinates", default="auto", choices=["auto", "maximal", "joint"],
+                   help="NLP coordinates: every body's (maximal) or the joints' (joint: bodies on revolute, "
+                        "prismatic and weld joints placed by their joint coordinates; same results files); "
+                        "auto (default): joint where bodies hang on such joints in no closed chain")
     o.set_defaults(handler=_solve)
 
 
@@ -119,7 +120,7 @@ def _solve(args) -> int:
     if tolerance is not None and not 0 < tolerance < float("inf"):
         raise UsageError(f"--tolerance must be a positive number such as 1e-6, got {tolerance!r}")
     task, problem = build_task(args.scene, args.task, parse_param_arguments(args.param))
-    problem.coordinates = getattr(args, "coordinates", "maximal")
+    problem.coordinates = getattr(args, "coordinates", "auto")
     intervals = args.intervals if args.intervals is not None else (50 if tolerance is None else 10)
     method = scheme_from_name(args.scheme, intervals, 3 if args.degree is None else args.degree)
     try:

@@ -23,6 +23,8 @@ from ..mechanics.equations import SystemEquations
 from ..errors import ModelError
 from ..mechanics.model import Model
 
+COORDINATES = ("auto", "maximal", "joint")
+
 
 @dataclass
 class IntegralTerm:
@@ -52,11 +54,14 @@ class OptimalControlProblem:
     t_final_bounds
         ``(lower, upper)`` makes the final time a decision variable.
     coordinates
-        ``"maximal"`` (default): every body's coordinates and speeds, every constraint with its
+        ``"maximal"``: every body's coordinates and speeds, every constraint with its
         multiplier. ``"joint"``: bodies on library joints (revolute, prismatic, weld) placed by
         their joint coordinates, whose constraints then hold identically and leave the NLP
         (:mod:`~ocp_constraints.ocp.joint_transcription`, paper sec. 5); names, loads and
-        results stay those of the bodies.
+        results stay those of the bodies. ``"auto"`` (default): joint coordinates where some
+        body hangs on such a joint and no closed chain of them exists
+        (:func:`~ocp_constraints.mechanics.generalized.joint_coordinates_pay`), else maximal;
+        :attr:`nlp_coordinates` says which.
     """
 
     model: Model
@@ -69,13 +74,13 @@ class OptimalControlProblem:
     initial_values: dict[str, float] = field(default_factory=dict)
     final_values: dict[str, float] = field(default_factory=dict)
     guess: dict[str, Callable[[np.ndarray], np.ndarray]] = field(default_factory=dict)
-    coordinates: str = "maximal"
+    coordinates: str = "auto"
 
     def __post_init__(self) -> None:
         if not (np.isfinite(self.t_final) and self.t_final > 0):
             raise ModelError(f"t_final must be a positive number of seconds, got {self.t_final!r}")
-        if self.coordinates not in ("maximal", "joint"):
-            raise ModelError(f"coordinates must be 'maximal' or 'joint', got {self.coordinates!r}")
+        if self.coordinates not in COORDINATES:
+            raise ModelError(f"coordinates must be one of {', '.join(COORDINATES)}, got {self.coordinates!r}")
         self.eqs = SystemEquations(self.model)
         self.lam = ca.SX.sym("lam", self.eqs.nc)
         e = self.eqs
@@ -197,7 +202,7 @@ class OptimalControlProblem:
                 self.time_weight, tuple(self.initial_values), tuple(self.final_values),
                 self.t_final_bounds is not None, None if self.t_final_bounds is not None else self.t_final,
                 # In joint coordinates a bound on a body coordinate or speed is a path row of the NLP.
-                self.coordinates, () if self.coordinates == "maximal" else tuple(sorted(
+                self.coordinates, () if self.nlp_coordinates == "maximal" else tuple(sorted(
                     (n, b) for n, b in self.bounds.items() if n not in self.model.inputs)))
 
     def solve(self, method=None, ipopt_options: dict | None = None, warm_start=None, *, check: bool = True,
@@ -253,13 +258,28 @@ class OptimalControlProblem:
             check_problem(self, method)
         return self.transcription(method).solve(ipopt_options or {}, warm_start, progress=progress)
 
+    @property
+    def nlp_coordinates(self) -> str:
+        """``"joint"`` or ``"maximal"``: the coordinates the NLP is written in (``coordinates``
+        with ``"auto"`` decided for this model)."""
+        if self.coordinates != "auto":
+            return self.coordinates
+        from ..mechanics.generalized import joint_coordinates_pay
+
+        key = _model_contents(self.model)
+        cached = self.__dict__.get("_auto_coordinates")
+        if cached is None or cached[0] != key:
+            cached = (key, "joint" if joint_coordinates_pay(self.eqs) else "maximal")
+            self.__dict__["_auto_coordinates"] = cached
+        return cached[1]
+
     def transcription(self, method):
         """The NLP of this problem with ``method``, built once per method and :meth:`structure_key`."""
         from .transcription import transcribe
 
-        if self.coordinates not in ("maximal", "joint"):
-            raise ModelError(f"coordinates must be 'maximal' or 'joint', got {self.coordinates!r}")
-        if self.coordinates == "joint":
+        if self.coordinates not in COORDINATES:
+            raise ModelError(f"coordinates must be one of {', '.join(COORDINATES)}, got {self.coordinates!r}")
+        if self.nlp_coordinates == "joint":
             from .joint_transcription import transcribe_joint as transcribe
 
         key = (method.label, method.intervals, None if method.mesh is None else tuple(method.mesh),

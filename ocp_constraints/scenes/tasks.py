@@ -225,7 +225,7 @@ def run_optimal_control(problem: OptimalControlProblem, scene_name: str, task: s
         "parameters": problem.model.parameters,
         "solver": {"nlp_solver": "ipopt", "transcription": method.label, "intervals": method.intervals,
                    "degree": getattr(method, "degree", None), "ipopt_options": ipopt_options or {},
-                   "coordinates": problem.coordinates},
+                   "coordinates": problem.nlp_coordinates},
         "iterations": sol.iterations,
         "t_final": sol.t_final,
         "wall_time": {"build": sol.wall_time["transcription"] + sol.wall_time["solver_setup"], **sol.wall_time},
