@@ -66,13 +66,16 @@ def test_a_figure_drawn_over_is_the_same_png_as_a_new_one():
         assert notes == (["P = 0"] if prefix == "hinge" else []), prefix          # the zero panel says so, once
 
 
-def test_write_plots_names_every_figure_at_its_size(tmp_path):
-    from ocp_constraints.output.plots import write_plots
+def test_write_plots_names_every_figure_at_its_size(tmp_path, monkeypatch):
+    """Also drawn in two processes where two CPUs are usable (output/forked.py): a load figure drawn by the
+    forked child is the same bytes as one drawn here."""
+    from ocp_constraints.output.plots import joint_figure, write_plots
 
     t = np.linspace(0.0, 1.0, 11)
     states = {"body.x": t, "body.y": -t, "body.psi": 0.1 * t, "body.vbar_x": np.ones_like(t), "body.omega_z": t, "u": t}
     loads = {**_loads(t, "j1", 3.0), **_loads(t, "j2", 4.0)}
     energy = {"E": 1 + 1e-9 * t, "constraint_work": 1e-9 * t}
+    monkeypatch.setenv("OCP_OUTPUT_PROCESSES", "2")
     names = write_plots(tmp_path, t, states, loads, ["j1", "j2"], energy, {"drive": (t, -t)}, ["u"])
     assert names == ["coordinates.png", "speeds.png", "inputs.png", "loads_j1.png", "loads_j2.png", "drive_drive.png",
                      "energy.png"]
@@ -84,6 +87,54 @@ def test_write_plots_names_every_figure_at_its_size(tmp_path):
     # figsize in inches times 110 dpi: coordinates two panels (8 x 7.0), a load figure three (8 x 7.9)
     assert sizes["coordinates.png"] == (880, 770) and sizes["loads_j1.png"] == sizes["loads_j2.png"] == (880, 869)
     assert sizes["energy.png"] == (880, 660) and sizes["inputs.png"] == (880, 440)
+    buf = io.BytesIO()
+    joint_figure(t, loads, "j1").savefig(buf, format="png", dpi=110)      # jobs 1, 3, 5 go to the child
+    assert (tmp_path / "loads_j1.png").read_bytes() == buf.getvalue()
+
+
+def test_work_a_forked_process_could_not_do_is_done_by_the_parent(tmp_path):
+    import os
+
+    from ocp_constraints.output.forked import run_split
+
+    parent = os.getpid()
+
+    def work(part):
+        for i in part:
+            if os.getpid() != parent:
+                raise RuntimeError("a child that fails before its first item")
+            (tmp_path / f"{i}.txt").write_text(str(os.getpid()))
+
+    run_split(list(range(6)), work, k=3)
+    assert sorted(p.name for p in tmp_path.iterdir()) == [f"{i}.txt" for i in range(6)]
+    assert {p.read_text() for p in tmp_path.iterdir()} == {str(parent)}
+
+
+def test_no_fork_with_other_threads_running_or_no_idle_cpu(monkeypatch):
+    import os
+    import threading
+
+    from ocp_constraints.output import forked
+    from ocp_constraints.output.forked import processes
+
+    monkeypatch.delenv("OCP_OUTPUT_PROCESSES", raising=False)
+    monkeypatch.setattr(forked, "_load", lambda: 2.0)            # both cores of a 2-core machine busy
+    assert processes(10) == 1
+    monkeypatch.setattr(forked, "_load", lambda: 0.3)
+    assert processes(10) == min(2, len(os.sched_getaffinity(0)))
+    assert processes(3) == 1                                      # fewer than two items each
+
+    monkeypatch.setenv("OCP_OUTPUT_PROCESSES", "2")
+    stop = threading.Event()
+    thread = threading.Thread(target=stop.wait)
+    thread.start()
+    try:
+        assert processes(10) == 1
+    finally:
+        stop.set()
+        thread.join()
+    monkeypatch.setenv("OCP_OUTPUT_PROCESSES", "1")
+    assert processes(10) == 1
 
 
 def test_plots_import_matplotlib_only_to_draw_and_never_pyplot(tmp_path):

@@ -11,19 +11,18 @@ from pathlib import Path
 
 import numpy as np
 
-from .plots import file_name, joint_figure, new_figure, save
+from .plots import file_name, joint_figure, new_figure, write_figures
 
 
 def write_gait_plots(out: Path, t, joints: list[tuple[str, str | None, dict[str, np.ndarray]]],
                      loads: dict[str, np.ndarray]) -> list[str]:
     """``gait_<joint>.png`` per leg joint: ``(joint, load channel or None, {coordinate label: generalized force})``."""
-    written: list[str] = []
-    fig = None
-    for joint, prefix, generalized in joints:     # one figure, drawn over joint by joint (same panels)
-        fig = joint_figure(t, loads, prefix or joint, ("generalized force [N m or N]", generalized),
-                           title=f"{joint}: generalized forces; constraint load on the child at its point", fig=fig)
-        save(fig, out, f"gait_{file_name(joint)}.png", written, dpi=100, close=False)
-    return written
+    jobs = [(f"gait_{file_name(joint)}.png",          # drawn over one figure (same panels) in each process
+             lambda prev, j=joint, p=prefix, g=generalized: joint_figure(
+                 t, loads, p or j, ("generalized force [N m or N]", g),
+                 title=f"{j}: generalized forces; constraint load on the child at its point", fig=prev))
+            for joint, prefix, generalized in joints]
+    return write_figures(out, jobs, dpi=100)
 
 
 def knee_figure(t, predicted: dict[str, np.ndarray], label: str, measured=None, phases=()):

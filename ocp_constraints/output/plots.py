@@ -122,9 +122,7 @@ def _lines(ax, t, series: dict[str, np.ndarray], **style) -> None:
 
 def grouped_panels(t, columns: dict[str, np.ndarray], groups, title: str):
     """One panel per unit group that has columns; None if none has."""
-    found = [(label, {k: v for k, v in columns.items() if "." in k and k.rsplit(".", 1)[1] in suffixes})
-             for _, label, suffixes in groups]
-    found = [(label, cols) for label, cols in found if cols]
+    found = _groups_found(columns, groups)
     if not found:
         return None
     fig, axes = new_figure(8, 2.6 + 2.2 * len(found), len(found))
@@ -220,6 +218,31 @@ def joint_figure(t, loads: dict[str, np.ndarray], prefix: str, extra=None, title
     return fig
 
 
+def write_figures(out: Path, jobs: list[tuple[str, object]], dpi: int = 110) -> list[str]:
+    """Draw and write ``(file name, draw)`` jobs, ``draw(previous figure or None) -> figure`` (a draw may
+    reuse the previous figure, :func:`joint_figure`); returns the names in order. matplotlib is imported
+    first, then the jobs are shared with a forked copy of this process when a second CPU is free
+    (:func:`~ocp_constraints.output.forked.run_split`): the same files, drawn side by side."""
+    from .forked import run_split
+
+    _load()
+
+    def work(part) -> None:
+        fig = None
+        for name, draw in part:
+            fig = draw(fig)
+            save(fig, out, name, [], dpi=dpi, close=False)
+
+    run_split(list(jobs), work)
+    return [name for name, _ in jobs]
+
+
+def _load() -> None:
+    """Import matplotlib's Figure and Agg canvas (before a fork, so that forked copies share them)."""
+    import matplotlib.backends.backend_agg  # noqa: F401
+    import matplotlib.figure  # noqa: F401
+
+
 def write_plots(out: Path, t: np.ndarray, states: dict[str, np.ndarray], loads: dict[str, np.ndarray],
                 joints: list[str], energy: dict[str, np.ndarray] | None = None,
                 drives: dict[str, tuple[np.ndarray, np.ndarray]] | None = None,
@@ -230,25 +253,31 @@ def write_plots(out: Path, t: np.ndarray, states: dict[str, np.ndarray], loads: 
     ``joints``: the load channels; ``energy``: see :func:`energy_figure`; ``drives``: constraint
     name -> (multiplier, power ``-lambda e``) at ``t``.
     """
-    written: list[str] = []
-    fig = grouped_panels(t, states, GROUPS, "coordinates")
-    if fig is not None:
-        save(fig, out, "coordinates.png", written)
-    fig = grouped_panels(t, states, SPEED_GROUPS, "speeds")
-    if fig is not None:
-        save(fig, out, "speeds.png", written)
+    jobs: list[tuple[str, object]] = []
+    for name, groups, title in (("coordinates.png", GROUPS, "coordinates"), ("speeds.png", SPEED_GROUPS, "speeds")):
+        if _groups_found(states, groups):
+            jobs.append((name, lambda _, g=groups, s=title: grouped_panels(t, states, g, s)))
     if inputs:
-        fig, (ax,) = new_figure(8, 4)
-        _lines(ax, t, {n: states[n] for n in inputs})
-        ax.set(xlabel="t [s]", ylabel="input [N m or N]", title="actuator inputs")
-        ax.legend(fontsize=7, ncol=2)
-        save(fig, out, "inputs.png", written)
-    fig = None
-    for prefix in joints:           # one figure for all load channels, drawn over (same panels)
-        fig = joint_figure(t, loads, prefix, fig=fig)
-        save(fig, out, f"loads_{file_name(prefix)}.png", written, close=False)
+        jobs.append(("inputs.png", lambda _: _inputs_figure(t, states, inputs)))
+    for prefix in joints:           # drawn over one figure (same panels) in each process
+        jobs.append((f"loads_{file_name(prefix)}.png", lambda prev, p=prefix: joint_figure(t, loads, p, fig=prev)))
     for name, (lam, power) in (drives or {}).items():
-        save(drive_figure(t, name, lam, power), out, f"drive_{file_name(name)}.png", written)
+        jobs.append((f"drive_{file_name(name)}.png", lambda _, n=name, a=lam, b=power: drive_figure(t, n, a, b)))
     if energy:
-        save(energy_figure(t, energy), out, "energy.png", written)
-    return written
+        jobs.append(("energy.png", lambda _: energy_figure(t, energy)))
+    return write_figures(out, jobs)
+
+
+def _groups_found(columns: dict[str, np.ndarray], groups) -> list[tuple[str, dict[str, np.ndarray]]]:
+    """``(axis label, {column: values})`` of each unit group that has columns (``body.x`` is in group ``x``)."""
+    found = [(label, {k: v for k, v in columns.items() if "." in k and k.rsplit(".", 1)[1] in suffixes})
+             for _, label, suffixes in groups]
+    return [(label, cols) for label, cols in found if cols]
+
+
+def _inputs_figure(t, states: dict[str, np.ndarray], inputs: list[str]):
+    fig, (ax,) = new_figure(8, 4)
+    _lines(ax, t, {n: states[n] for n in inputs})
+    ax.set(xlabel="t [s]", ylabel="input [N m or N]", title="actuator inputs")
+    ax.legend(fontsize=7, ncol=2)
+    return fig
