@@ -1,4 +1,4 @@
-"""Bounds of the decision variables of a transcription (see :class:`~.transcription.Layout`)."""
+"""Bounds of the decision variables of a transcription (see :class:`~.layout.Layout`)."""
 from __future__ import annotations
 
 import numpy as np

@@ -65,7 +65,7 @@ def check_problem(problem, method) -> Diagnostics:
 
 
 def nlp_variables(problem, method) -> int:
-    """Decision variables of the transcription (see :class:`~ocp_constraints.ocp.transcription.Layout`)."""
+    """Decision variables of the transcription (see :class:`~ocp_constraints.ocp.layout.Layout`)."""
     e = problem.eqs
     P = method.point_count
     n_acc = 1 if method.accelerations_from_speeds is not None else P

@@ -27,7 +27,6 @@ repeated over the mesh; IPOPT gets exact derivatives assembled from each element
 from __future__ import annotations
 
 import time
-from dataclasses import dataclass
 from types import SimpleNamespace
 
 import casadi as ca
@@ -38,6 +37,7 @@ from .nlp_assembly import BlockNLP, element
 from .bounds import variable_bounds
 from .guess import consistent_guess, from_solution
 from .interpolation import interpolation_matrix
+from .layout import Layout
 from .progress import IterationMonitor, stop_on_signals
 from .solution import OCPSolution
 from ..errors import OCPSolveError
@@ -46,37 +46,6 @@ from .schemes import Scheme
 
 DEFAULT_IPOPT = {"ipopt.tol": 1e-10, "ipopt.constr_viol_tol": 1e-10, "ipopt.max_iter": 3000,
                  "ipopt.print_level": 0, "print_time": False, "ipopt.sb": "yes"}
-
-
-@dataclass
-class Layout:
-    """Where each block of the decision vector lives (all column-major blocks)."""
-
-    n_points: int
-    nx: int
-    nu: int
-    nc: int
-    nh: int
-    n_in: int
-    free_time: bool
-    n_acc: int  # points with acceleration variables: all, or t0 only where the scheme gives them
-
-    def sizes(self) -> list[int]:
-        P = self.n_points
-        return [self.nx * P, self.nu * self.n_acc, self.nc * P, self.n_in * P, self.nh * (P - 1), int(self.free_time)]
-
-    def split(self, w):
-        out, start = [], 0
-        for n in self.sizes():
-            out.append(w[start : start + n])
-            start += n
-        P = self.n_points
-        X = ca.reshape(out[0], self.nx, P)
-        A = ca.reshape(out[1], self.nu, self.n_acc)
-        L = ca.reshape(out[2], self.nc, P)
-        W = ca.reshape(out[3], self.n_in, P)
-        Gm = ca.reshape(out[4], self.nh, P - 1)
-        return X, A, L, W, Gm, out[5]
 
 
 class Transcription:
