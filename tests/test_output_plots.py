@@ -148,3 +148,20 @@ def test_plots_import_matplotlib_only_to_draw_and_never_pyplot(tmp_path):
     proc = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=120)
     assert proc.returncode == 0, proc.stderr[-2000:]
     assert (tmp_path / "gait_j.png").is_file()
+
+
+def test_a_drawing_process_runs_the_call_and_the_parent_does_when_it_is_gone(monkeypatch):
+    import os
+
+    import pytest
+
+    from ocp_constraints.output.drawing_process import DrawingProcess
+
+    monkeypatch.setenv("OCP_OUTPUT_PROCESSES", "2")
+    dp = DrawingProcess()
+    if dp.error is not None:
+        pytest.skip(f"no drawing process here: {dp.error}")
+    assert dp.call(os.getpid) != os.getpid()             # ran in the child
+    gone = DrawingProcess()
+    gone.close()                                          # the child ended before the call
+    assert gone.call(os.getpid) == os.getpid() and gone.error is not None

@@ -12,8 +12,10 @@ if TYPE_CHECKING:
     from .gait import GaitResult
 
 
-def write_gait_results(result: GaitResult, out, side: str = "right", plots: bool = True, inputs: dict | None = None) -> dict:
-    """``summary.json``, ``loads.csv`` (DESIGN.md names plus ``<coordinate>_moment/_force``) and plots."""
+def write_gait_results(result: GaitResult, out, side: str = "right", plots: bool = True, inputs: dict | None = None,
+                       drawer=None) -> dict:
+    """``summary.json``, ``loads.csv`` (DESIGN.md names plus ``<coordinate>_moment/_force``) and plots;
+    ``drawer``: an :class:`~ocp_constraints.output.drawing_process.DrawingProcess` that draws them."""
     from ..output.files import software_versions, write_csv, write_json
     from ..output.report import write_report
     from ..output.sto import write_sto
@@ -42,7 +44,7 @@ def write_gait_results(result: GaitResult, out, side: str = "right", plots: bool
         "wall_time": result.timings, "warnings": result.warnings, "software": software_versions(),
     }
     if plots:
-        summary["plots"] = _plots(result, folder, leg)
+        summary["plots"] = _plots(result, folder, leg, drawer)
         summary["report"] = "report.html"
     write_json(folder / "summary.json", summary)
     if plots:
@@ -51,8 +53,9 @@ def write_gait_results(result: GaitResult, out, side: str = "right", plots: bool
     return summary
 
 
-def _plots(result: GaitResult, folder: Path, leg: list[str]) -> list[str]:
-    """``gait_<joint>.png`` per leg joint: generalized forces, constraint force, moment and power."""
+def _plots(result: GaitResult, folder: Path, leg: list[str], drawer=None) -> list[str]:
+    """``gait_<joint>.png`` per leg joint: generalized forces, constraint force, moment and power (drawn by
+    ``drawer``, which has matplotlib loaded, if given)."""
     from ..output.joint_plots import write_gait_plots
 
     loads = result.loads()
@@ -60,4 +63,6 @@ def _plots(result: GaitResult, folder: Path, leg: list[str]) -> list[str]:
     for j in leg:
         prefix = next((p for p in (f"{j}@{result.joints[j].child}", j) if f"{p}.F_x" in loads), None)
         rows.append((j, prefix, {c: result.generalized_force(c) for c in result.osim.joints[j].coordinates}))
+    if drawer is not None:
+        return drawer.call(write_gait_plots, folder, result.t, rows, loads)
     return write_gait_plots(folder, result.t, rows, loads)

@@ -47,6 +47,10 @@ def cli_gait(args) -> int:
     # the per-sample systems are small (about 150 unknowns): BLAS threads only contend (measured:
     # inverse dynamics of ngait_og5 30 s -> 5 s on the loaded 2-core machine); set before NumPy loads
     os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
+    from ..output.drawing_process import DrawingProcess
+
+    # forked before the heavy imports: it imports matplotlib while this process computes
+    drawer = None if getattr(args, "no_plots", False) else DrawingProcess()
     from ..biomech.gait import run_inverse_dynamics
     from ..biomech.gait_report import write_gait_results
 
@@ -59,7 +63,7 @@ def cli_gait(args) -> int:
                                       compiled=getattr(args, "compiled", "auto"))
         summary = write_gait_results(result, args.out, args.side, plots=not getattr(args, "no_plots", False),
                                      inputs={"model": args.model, "motion": args.motion, "grf": args.grf,
-                                             "cutoff_hz": cutoff, "no_filter": cutoff is None})
+                                             "cutoff_hz": cutoff, "no_filter": cutoff is None}, drawer=drawer)
     except OcpConstraintsError as exc:
         print(f"error: {exc}", file=sys.stderr)
         return 2
@@ -68,6 +72,9 @@ def cli_gait(args) -> int:
         if stop is None:
             raise
         raise stop from None
+    finally:
+        if drawer is not None:
+            drawer.close()
     for note in (summary.get("timing") or {}).get("notes", []) + [v for k, v in (summary.get("angles") or {}).items()
                                                                    if k == "angle_unit_note"]:
         print(f"note: {note}", file=sys.stderr)
