@@ -64,6 +64,14 @@ def test_a_figure_drawn_over_is_the_same_png_as_a_new_one():
         assert len(fig.axes) == 4 and len(fig.axes[0].lines) == len(gen)
         notes = [x.get_text() for x in fig.axes[3].texts]
         assert notes == (["P = 0"] if prefix == "hinge" else []), prefix          # the zero panel says so, once
+    # the speeds drawn over the coordinates (two panels each; the joint figure's title size does not stay)
+    from ocp_constraints.output.plots import GROUPS, SPEED_GROUPS, grouped_panels
+
+    columns = {"b.x": t, "b.z": -t, "b.psi": t ** 2, "b.vbar_x": 3 * t, "b.omega_y": np.cos(t), "b.psi_dot": 2 * t}
+    fig = grouped_panels(t, columns, GROUPS, "coordinates")
+    _png(fig)
+    fig = grouped_panels(t, columns, SPEED_GROUPS, "speeds", fig=fig)
+    assert _png(fig) == _png(grouped_panels(t, columns, SPEED_GROUPS, "speeds"))
 
 
 def test_write_plots_names_every_figure_at_its_size(tmp_path, monkeypatch):

@@ -79,6 +79,8 @@ def new_figure(width: float, height: float, rows: int = 1, height_ratios=None):
 def clear(fig) -> None:
     """Empty a figure of :func:`new_figure` for the next one of its shape: lines, notes, legends, titles and
     labels go; axes, ticks and grid stay. Colours start again at C0 and the limits follow the new data."""
+    from matplotlib import rcParams
+
     for ax in fig.axes:
         for artist in [*ax.lines, *ax.texts]:
             artist.remove()
@@ -86,6 +88,7 @@ def clear(fig) -> None:
             ax.get_legend().remove()
         ax.set_prop_cycle(None)
         ax.set(title="", ylabel="", ylim=(0, 1))    # the limits of a new (empty) axes
+        ax.title.set_fontsize(rcParams["axes.titlesize"])     # as a new axes's (a joint figure sizes its own)
         ax.relim()
         ax.set_autoscaley_on(True)
 
@@ -120,12 +123,13 @@ def _lines(ax, t, series: dict[str, np.ndarray], **style) -> None:
         ax.plot(t, np.column_stack([np.asarray(v, float) for v in series.values()]), label=list(series), **style)
 
 
-def grouped_panels(t, columns: dict[str, np.ndarray], groups, title: str):
-    """One panel per unit group that has columns; None if none has."""
+def grouped_panels(t, columns: dict[str, np.ndarray], groups, title: str, fig=None):
+    """One panel per unit group that has columns; None if none has. ``fig``: an earlier figure to draw
+    over when it has the same panels (:func:`clear`)."""
     found = _groups_found(columns, groups)
     if not found:
         return None
-    fig, axes = new_figure(8, 2.6 + 2.2 * len(found), len(found))
+    fig, axes = _figure(fig, 8, 2.6 + 2.2 * len(found), len(found))
     for ax, (label, cols) in zip(axes, found):
         _lines(ax, t, cols)
         ax.set(ylabel=label)
@@ -256,7 +260,7 @@ def write_plots(out: Path, t: np.ndarray, states: dict[str, np.ndarray], loads: 
     jobs: list[tuple[str, object]] = []
     for name, groups, title in (("coordinates.png", GROUPS, "coordinates"), ("speeds.png", SPEED_GROUPS, "speeds")):
         if _groups_found(states, groups):
-            jobs.append((name, lambda _, g=groups, s=title: grouped_panels(t, states, g, s)))
+            jobs.append((name, lambda prev, g=groups, s=title: grouped_panels(t, states, g, s, fig=prev)))
     if inputs:
         jobs.append(("inputs.png", lambda _: _inputs_figure(t, states, inputs)))
     for prefix in joints:           # drawn over one figure (same panels) in each process
