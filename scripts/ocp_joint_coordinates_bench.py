@@ -2,6 +2,8 @@
 
     python scripts/ocp_joint_coordinates_bench.py [--N 25 50 100 200 400] [--runs 3] [--degree 3]
     python scripts/ocp_joint_coordinates_bench.py --degree 9 --N 20 --runs 3     # high accuracy
+    python scripts/ocp_joint_coordinates_bench.py --N 25 50 100 200 400 800 1600 --solvers joint rockit
+                                                      # how the time grows with N (fitted exponent)
 
 One interleaved run: for each repetition, each N, each solver in turn (so a noisy neighbour
 hits all three alike). Per solver and N, the medians over the runs of:
@@ -92,12 +94,14 @@ def main() -> None:
     ap.add_argument("--N", type=int, nargs="+", default=[25, 50, 100, 200, 400])
     ap.add_argument("--runs", type=int, default=3)
     ap.add_argument("--degree", type=int, default=3)
+    ap.add_argument("--solvers", nargs="+", choices=["maximal", "joint", "rockit"], default=["maximal", "joint", "rockit"])
     args = ap.parse_args()
     reference = swing_up_reference()
     ref = reference.objective
     solvers = {"maximal": lambda N: ours(N, args.degree, "maximal", reference),
                "joint": lambda N: ours(N, args.degree, "joint", reference),
                "rockit": lambda N: rockit(N, args.degree)}
+    solvers = {k: f for k, f in solvers.items() if k in args.solvers or k == "rockit"}   # rockit: the ratios' base
     for name, f in solvers.items():       # warm-up: imports, CasADi's first JIT-free set-up
         f(args.N[0])
     rows: dict = {}
@@ -125,6 +129,13 @@ def main() -> None:
                   f"{abs(med['objective'] - ref):.1e} | {med['solve_wall'] / rock['solve_wall']:.2f} | "
                   f"{med['solve_cpu'] / rock['solve_cpu']:.2f} | {med['total_cpu'] / rock['total_cpu']:.2f} | "
                   f"{rs[0]['state_error']:.1e} | {rs[0]['lambda_error']:.1e} |")
+    if len(args.N) > 2:
+        # Solve time ~ N^k: least-squares slope of log(median time) on log(N), IPOPT's and problem to solution.
+        logN = np.log(args.N)
+        for name in solvers:
+            for key in ("solve_cpu", "total_cpu"):
+                y = np.log([np.median([r[key] for r in rows[(name, N)]]) for N in args.N])
+                print(f"{name}: {key} ~ N^{np.polyfit(logN, y, 1)[0]:.2f} (N = {args.N[0]}..{args.N[-1]})")
 
 
 if __name__ == "__main__":
