@@ -94,8 +94,9 @@ def clear(fig) -> None:
 
 
 def _figure(fig, width: float, height: float, rows: int):
-    """``fig`` emptied for reuse when it has this size and number of panels, else a new figure."""
-    if fig is not None and len(fig.axes) == rows and tuple(fig.get_size_inches()) == (width, height):
+    """``fig`` emptied for reuse when it has this size and number of equal panels, else a new figure."""
+    if (fig is not None and len(fig.axes) == rows and tuple(fig.get_size_inches()) == (width, height)
+            and len(set(fig.axes[0].get_subplotspec().get_gridspec().get_height_ratios())) == 1):
         clear(fig)
         return fig, list(fig.axes)
     return new_figure(width, height, rows)
