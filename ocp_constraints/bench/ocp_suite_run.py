@@ -51,6 +51,13 @@ def _angles(names: list[str], signs=None) -> Callable:
     return states
 
 
+def _disk_states(sol, inputs: list[str], t: np.ndarray):
+    """The rolling disk's minimal state: (x, y, psi, theta, phi) and the angle rates (its speeds)."""
+    q = [f"disk.{c}" for c in ("x", "y", "psi", "theta", "phi")]
+    X = np.array([sol.interpolate(n, t) for n in q] + [sol.interpolate(f"{n}_dot", t) for n in q[2:]])
+    return X, np.array([sol.interpolate(n, t) for n in inputs])
+
+
 def _rate(name: str) -> str:
     return name.replace(".x", ".vbar_x") if name.endswith(".x") else f"{name}_dot"
 
@@ -75,7 +82,8 @@ PROBLEMS = [
                  (80, 7), _angles(["cart.x", "rod1.psi", "rod2.psi"]), ["push"]),
     SuiteProblem("four_bar", planar.four_bar, minimal.four_bar, "rocker angle upright (one coordinate)", (40, 7),
                  (80, 7), _angles(["crank.psi"]), ["motor"]),
-    SuiteProblem("rolling_disk", spatial.rolling_disk, minimal3d.rolling_disk, "none", (40, 7), (80, 7)),
+    SuiteProblem("rolling_disk", spatial.rolling_disk, minimal3d.rolling_disk, "none", (40, 7), (80, 7),
+                 _disk_states, ["tau_x", "tau_y", "tau_z"]),
     SuiteProblem("quadrotor_load", spatial.quadrotor_load, minimal3d.quadrotor_load, "none", (40, 7), (80, 7)),
     SuiteProblem("walker", spatial.walker, minimal3d.walker, "none", (40, 7), (80, 7),
                  _angles(WALKER_LINKS, [-1.0] * 5), ["ankle", "hip1", "hip2", "knee1", "knee2"]),
