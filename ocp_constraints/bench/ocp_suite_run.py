@@ -237,9 +237,9 @@ def _ratio(r: dict, who: str, key: str) -> str:
 
 def markdown(rows: list[dict], runs: int) -> str:
     """The README table: one line per problem."""
-    head = ("| problem | guess | ours: success, iterations | ours: time s (CPU s) | ours: J | ours, joint coordinates: "
-            "success, iterations | joint: time s (CPU s) | joint: J | rockit: success, iterations | rockit: time s (CPU s) "
-            "| rockit: J | time / rockit's, ours (CPU) | joint (CPU) | ours, fine mesh: J | reference J (its mesh error) "
+    head = ("| problem | guess | maximal: success, iterations | maximal: time s (CPU s) | maximal: J | joint coordinates "
+            "(the default, coordinates='auto'): success, iterations | joint: time s (CPU s) | joint: J | rockit: success, "
+            "iterations | rockit: time s (CPU s) | rockit: J | time / rockit's, maximal (CPU) | joint (CPU) | ours, fine mesh: J | reference J (its mesh error) "
             "| agreement | agreement on our fine mesh |")
     lines = [head, "|" + "---|" * 17]
     for r in rows:
