@@ -28,7 +28,7 @@ README = REPO / "README.md"
 FENCE = re.compile(r"^(\s*)```(\w*)\s*$")
 #: command prefix -> why it is not run here (each takes minutes; measured on this 2-core machine)
 SLOW = {
-    "ocp-constraints batch": "a batch of many runs (the README's knee sensitivity batch: 15 knee runs, 4.1 min); "
+    "ocp-constraints batch": "a batch of many runs (the README's knee sensitivity batch: 15 knee runs, 86 s on one worker); "
                              "the batch command itself is tested in test_batch.py",
     "ocp-constraints bench --readme": "the full benchmark (about 6 min); tested in test_bench_report.py",
     "ocp-constraints bench --quick": "41 s of CPU, 2 min 51 s of wall time under load; tested in test_bench_report.py",
