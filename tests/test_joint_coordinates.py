@@ -230,3 +230,23 @@ def test_an_imported_robot_moves_in_its_urdf_joint_angles(tmp_path):
     bounded, peak_b = solve(0.95 * peak)
     assert peak_b == pytest.approx(0.95 * peak, rel=1e-8) and bounded.objective > free.objective
     assert max(bounded.residuals()) <= 1e-12
+
+
+def test_auto_falls_back_to_maximal_coordinates_where_the_joint_form_cannot_be_built(monkeypatch):
+    # "auto" must never make a problem fail that the maximal form solves: where the joint form
+    # cannot be written (e.g. Euler angles singular at the joint coordinates' zero), it falls back.
+    import ocp_constraints.ocp.joint_transcription as jt
+
+    def refuse(problem, scheme):
+        raise ModelError("body 'rod': its Euler angles are singular at the joint coordinates' zero")
+
+    monkeypatch.setattr(jt, "transcribe_joint", refuse)
+    _, auto = oc.build_task("pendulum", "swing_up")
+    assert auto.nlp_coordinates == "joint"
+    sol = auto.solve(oc.Radau(20, degree=3))
+    assert auto.nlp_coordinates == "maximal" and not isinstance(sol.transcription, JointTranscription)
+    assert sol.objective == pytest.approx(8.913005, rel=1e-3)      # the Pontryagin optimum (README)
+    _, explicit = oc.build_task("pendulum", "swing_up")
+    explicit.coordinates = "joint"                                  # asked for: the error, not a fallback
+    with pytest.raises(ModelError, match="singular"):
+        explicit.solve(oc.Radau(20, degree=3))

@@ -288,7 +288,19 @@ class OptimalControlProblem:
         if key not in cache:
             for old in [k for k in cache if k[:4] == key[:4]]:
                 del cache[old]     # the problem changed: its old NLP for this method is of no use
-            cache[key] = transcribe(self, method)
+            try:
+                cache[key] = transcribe(self, method)
+            except ModelError:
+                if self.coordinates != "auto" or self.nlp_coordinates != "joint":
+                    raise
+                # "auto" chose joint coordinates but this model cannot be written in them (e.g. Euler
+                # angles singular at the joint coordinates' zero): the maximal form, as the user
+                # asked for no particular one; a real error in the problem is raised there too.
+                from .transcription import transcribe as transcribe_maximal
+
+                self.__dict__["_auto_coordinates"] = (_model_contents(self.model), "maximal")
+                key = key[:4] + (self.structure_key(),)
+                cache[key] = transcribe_maximal(self, method)
         return cache[key]
 
 
