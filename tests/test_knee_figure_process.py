@@ -1,6 +1,6 @@
-"""The knee figure drawn by a forked process that loaded matplotlib while the run computed, and the
-parent drawing it itself when that process is gone. The figure's size in pixels is its figsize
-(8 x 8.5 in) times 100 dpi."""
+"""The knee figure drawn by the drawing process (a forked child that loaded matplotlib while the run
+computed, where a core is idle), and by the parent itself when that process is gone: the same file.
+The figure's size in pixels is its figsize (8 x 8.5 in) times 100 dpi."""
 import numpy as np
 
 
@@ -16,24 +16,22 @@ def _figure_args():
     return t, loads, "test", None, [(0.0, 0.6, "stance"), (0.6, 1.0, "swing")]
 
 
-def test_figure_process_writes_the_knee_figure_at_its_size(tmp_path):
-    from ocp_constraints.biomech.knee_figure_process import FigureProcess
+def test_drawing_process_writes_the_knee_figure_at_its_size(tmp_path):
+    from ocp_constraints.output.drawing_process import DrawingProcess
+    from ocp_constraints.output.joint_plots import write_knee_figure
 
-    fp = FigureProcess()
-    name = fp.draw(tmp_path, _figure_args())
-    if name is None and fp.error == "fork is not available":
-        return                                          # drawn in the parent instead (next test)
-    assert name == "knee_contact.png", fp.error
+    name = DrawingProcess().call(write_knee_figure, tmp_path, *_figure_args())
+    assert name == "knee_contact.png"
     assert _png_size(tmp_path / name) == (800, 850)     # figsize (8, 8.5) in at 100 dpi
 
 
-def test_a_dead_figure_process_leaves_the_figure_to_the_parent(tmp_path):
-    from ocp_constraints.biomech.knee_figure_process import FigureProcess
+def test_a_dead_drawing_process_leaves_the_knee_figure_to_the_parent(tmp_path):
     from ocp_constraints.biomech.knee_pipeline import _plot
+    from ocp_constraints.output.drawing_process import DrawingProcess
 
     t, loads, *_ = _figure_args()
     res = type("R", (), {"t": t, "medial": loads["medial"], "lateral": loads["lateral"], "total": loads["total"]})
-    fp = FigureProcess()
+    fp = DrawingProcess()
     fp.close()                                          # the child is gone before the figure is asked for
     assert _plot(dict(result=res, bw=1.0), tmp_path, fp) == "knee_contact.png"
     assert fp.error is not None

@@ -232,7 +232,8 @@ def run_knee(model, motion, grf, measured=None, muscles_on: bool = True, muscle_
 def write_knee_results(run: dict, out, plots: bool = True, inputs: dict | None = None, figure_process=None) -> dict:
     """Write the run folder ``out`` (loads.csv/.sto, muscle_forces.sto, trajectory.sto, summary.json and,
     with ``plots``, knee_contact.png and report.html); returns the summary. ``figure_process``: a
-    :class:`~.knee_figure_process.FigureProcess` that draws the figure with matplotlib already loaded."""
+    :class:`~ocp_constraints.output.drawing_process.DrawingProcess` that draws the figure with matplotlib
+    already loaded."""
     from ..output.files import software_versions, write_csv, write_json
     from ..output.report import write_report
     from ..output.run_folder import RunFolder
@@ -340,16 +341,11 @@ def _plot(run, folder, figure_process=None) -> str:
     label = f"{METHOD_TEXT[run.get('method', 'static')]}, {run.get('muscle_model', 'ideal')} muscles"
     args = (r.t, {"medial": r.medial / bw, "lateral": r.lateral / bw, "total": r.total / bw}, label,
             measured, list(run.get("phases", ())))
-    if figure_process is not None:
-        name = figure_process.draw(folder, args)
-        if name is not None:
-            return name
-    from ..output.joint_plots import knee_figure
-    from ..output.plots import save
+    from ..output.joint_plots import write_knee_figure
 
-    written: list[str] = []
-    save(knee_figure(*args), folder, "knee_contact.png", written, dpi=100)
-    return written[0]
+    if figure_process is not None:       # drawn there, or here if it cannot
+        return figure_process.call(write_knee_figure, folder, *args)
+    return write_knee_figure(folder, *args)
 
 
 CONDYLE_PARAMETERS = ("medial_cx", "medial_cy", "medial_cz", "lateral_cx", "lateral_cy", "lateral_cz")

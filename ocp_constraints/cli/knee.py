@@ -65,9 +65,9 @@ def cli_knee(args) -> int:
     mark = signal_mark()
     figures = None
     if not args.no_plots:       # matplotlib loads in a second process while this one computes
-        from ..biomech.knee_figure_process import FigureProcess
+        from ..output.drawing_process import DrawingProcess
 
-        figures = FigureProcess()
+        figures = DrawingProcess()
     try:
         cutoff = None if getattr(args, "no_filter", False) else getattr(args, "cutoff", 6.0)
         run = run_knee(args.model, args.motion, args.grf, args.measured, muscle_model=args.muscle_model,

@@ -6,8 +6,8 @@ the start of a command (before the heavy imports, so the fork is cheap); the chi
 and waits while the parent computes on the other core. At the end the parent hands it one call, e.g.
 ``write_gait_plots(folder, t, joints, loads)``, whose arrays are pickled through a pipe; the child
 draws (sharing the figures with a forked copy of itself when a core is idle,
-:mod:`.forked`) and answers with the file names. The knee's single figure does the same
-(``biomech/knee_figure_process.py``).
+:mod:`.forked`) and answers with the file names. The knee's figure goes the same way
+(``write_knee_figure``).
 
 No child is forked where :func:`.forked.processes` finds no idle CPU (load average at or above the
 usable CPUs, other threads, ``OCP_OUTPUT_PROCESSES=1``): measured on the shared 2-core machine at

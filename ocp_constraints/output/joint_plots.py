@@ -49,3 +49,13 @@ def knee_figure(t, predicted: dict[str, np.ndarray], label: str, measured=None, 
     axes[0].set_title("knee contact forces over the gait cycle")
     axes[-1].set(xlabel="t [s]")
     return fig
+
+
+def write_knee_figure(out: Path, t, predicted: dict[str, np.ndarray], label: str, measured=None, phases=()) -> str:
+    """``out/knee_contact.png`` from :func:`knee_figure`; its file name. A module-level function, so a
+    :class:`~.drawing_process.DrawingProcess` can run it in its child."""
+    from .plots import save
+
+    written: list[str] = []
+    save(knee_figure(t, predicted, label, measured, phases), Path(out), "knee_contact.png", written, dpi=100)
+    return written[0]
