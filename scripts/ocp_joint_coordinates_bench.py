@@ -23,13 +23,12 @@ piecewise-constant control per interval), here with the solver stats read out.
 from __future__ import annotations
 
 import argparse
-import math
 import time
 
 import numpy as np
 
 import ocp_constraints as oc
-from ocp_constraints.bench.peers import IPOPT_TOL, _pendulum_constants
+from ocp_constraints.bench.peers import rockit_swing_up
 from ocp_constraints.bench.references import swing_up_reference
 
 
@@ -59,34 +58,10 @@ def ours(N: int, degree: int, coordinates: str, ref=None) -> dict:
 
 
 def rockit(N: int, degree: int) -> dict:
-    import casadi as ca
-    import rockit as rk
-
-    J, c, tmax = _pendulum_constants()
-    started, cpu = time.perf_counter(), time.process_time()
-    ocp = rk.Ocp(T=2.0)
-    psi, w = ocp.state(), ocp.state()
-    u = ocp.control()
-    ocp.set_der(psi, w)
-    ocp.set_der(w, (u - c * ca.sin(psi)) / J)
-    ocp.add_objective(ocp.integral(u**2))
-    ocp.subject_to(-tmax <= (u <= tmax))
-    ocp.subject_to(ocp.at_t0(psi) == 0)
-    ocp.subject_to(ocp.at_t0(w) == 0)
-    ocp.subject_to(ocp.at_tf(psi) == math.pi)
-    ocp.subject_to(ocp.at_tf(w) == 0)
-    ocp.set_initial(psi, math.pi * ocp.t / 2 - ca.sin(math.pi * ocp.t / 2))
-    ocp.solver("ipopt", {"ipopt.tol": IPOPT_TOL, "ipopt.constr_viol_tol": IPOPT_TOL, "ipopt.print_level": 0,
-                         "print_time": False, "record_time": True, "ipopt.sb": "yes"})
-    ocp.method(rk.DirectCollocation(N=N, degree=degree, scheme="radau"))
-    sol = ocp.solve()
-    total, total_cpu = time.perf_counter() - started, time.process_time() - cpu
-    st = sol.stats
-    opti = ocp._method.opti
-    return {"objective": float(sol.value(ocp.objective)), "iterations": int(st["iter_count"]),
-            "solve_wall": st["t_wall_total"], "solve_cpu": st["t_proc_total"], "build": total - st["t_wall_total"],
-            "total": total, "total_cpu": total_cpu, "state_error": np.nan, "lambda_error": np.nan,
-            "size": (opti.nx, opti.ng)}
+    r = rockit_swing_up(N, degree)
+    return {"objective": r["objective"], "iterations": r["iterations"], "solve_wall": r["ipopt_wall_s"],
+            "solve_cpu": r["ipopt_cpu_s"], "build": r["total_s"] - r["ipopt_wall_s"], "total": r["total_s"],
+            "total_cpu": r["total_cpu_s"], "state_error": np.nan, "lambda_error": np.nan, "size": r["size"]}
 
 
 def main() -> None:

@@ -163,7 +163,7 @@ def test_disk_cache_gives_the_same_functions_and_a_new_key_for_another_model(run
 
 def test_chunked_evaluation_equals_one_map_over_all_frames(run, monkeypatch):
     from ocp_constraints.biomech import gait_compiled
-    from ocp_constraints.dynamics.inverse import evaluate
+    from ocp_constraints.mechanics.fast_eval import evaluate
 
     fns = run.functions
     monkeypatch.setattr(gait_compiled, "CHUNK", 16)

@@ -26,6 +26,7 @@ import io
 import statistics
 import time
 from dataclasses import dataclass, field
+from pathlib import Path
 from typing import Callable
 
 import numpy as np
@@ -337,18 +338,6 @@ def _earlier_rows(folder, exclude: set) -> dict:
 
 def splice(readme, text: str | None) -> None:
     """Replace the text between the suite markers of ``readme``; ``text=None`` only checks them."""
-    from ..errors import SceneError
-    from ..output.files import write_atomic
+    from ..output.files import replace_between_markers
 
-    try:
-        current = readme.read_text()
-    except OSError as exc:
-        raise SceneError(f"bench --ocp-suite --readme: cannot read {readme}: {exc.strerror}") from exc
-    if current.count(SUITE_START) != 1 or current.count(SUITE_END) != 1 or current.index(SUITE_START) > current.index(SUITE_END):
-        raise SceneError(f"bench --ocp-suite --readme: {readme} needs one line '{SUITE_START}' and, after it, one line "
-                         f"'{SUITE_END}'; the table goes between them")
-    if text is None:
-        return
-    head, rest = current.split(SUITE_START)
-    tail = rest.split(SUITE_END, 1)[1]
-    write_atomic(readme, f"{head}{SUITE_START}\n{text.rstrip()}\n{SUITE_END}{tail}".encode())
+    replace_between_markers(Path(readme), SUITE_START, SUITE_END, text, "bench --ocp-suite --readme")

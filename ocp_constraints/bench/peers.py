@@ -44,7 +44,7 @@ def rockit_swing_up(N: int, degree: int = 3):
     import rockit
 
     J, c, tmax = _pendulum_constants()
-    started = time.perf_counter()
+    started, cpu = time.perf_counter(), time.process_time()
     ocp = rockit.Ocp(T=2.0)
     psi, w = ocp.state(), ocp.state()
     u = ocp.control()
@@ -58,16 +58,22 @@ def rockit_swing_up(N: int, degree: int = 3):
     ocp.subject_to(ocp.at_tf(w) == 0)
     ocp.set_initial(psi, math.pi * ocp.t / 2 - ca.sin(math.pi * ocp.t / 2))
     ocp.solver("ipopt", {"ipopt.tol": IPOPT_TOL, "ipopt.constr_viol_tol": IPOPT_TOL, "ipopt.print_level": 0,
-                         "print_time": False, "ipopt.sb": "yes"})
+                         "print_time": False, "record_time": True, "ipopt.sb": "yes"})
     ocp.method(rockit.DirectCollocation(N=N, degree=degree, scheme="radau"))
     built = time.perf_counter()
     sol = ocp.solve()
-    solved = time.perf_counter()
+    solved, solved_cpu = time.perf_counter(), time.process_time()
     t, P = sol.sample(psi, grid="control")
     _, W = sol.sample(w, grid="control")
-    it = int(sol.stats.get("iter_count", -1)) if hasattr(sol, "stats") else -1
+    st = sol.stats if hasattr(sol, "stats") else {}
+    opti = ocp._method.opti
     return {"t": np.asarray(t), "psi": np.asarray(P), "psi_dot": np.asarray(W), "build_s": built - started,
-            "solve_s": solved - built, "iterations": it, "setting": f"rockit DirectCollocation(N={N}, degree={degree})"}
+            "solve_s": solved - built, "iterations": int(st.get("iter_count", -1)),
+            "setting": f"rockit DirectCollocation(N={N}, degree={degree})",
+            # IPOPT's own times (record_time), problem to solution in all, the NLP's size
+            "objective": float(sol.value(ocp.objective)), "ipopt_wall_s": st.get("t_wall_total", np.nan),
+            "ipopt_cpu_s": st.get("t_proc_total", np.nan), "total_s": solved - started,
+            "total_cpu_s": solved_cpu - cpu, "size": (opti.nx, opti.ng)}
 
 
 def drake_swing_up(N: int):

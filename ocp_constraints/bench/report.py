@@ -29,7 +29,7 @@ from .sweeps import (
     sweep_sim,
 )
 from ..errors import SceneError
-from ..output.files import prepare_output_folder, write_atomic
+from ..output.files import prepare_output_folder, replace_between_markers, write_atomic
 from ..scenes.registry import builtin_scene_names
 
 
@@ -121,21 +121,12 @@ README_END = "<!-- end of bench section -->"
 def splice_readme(readme: Path, section: str | None, out: Path) -> None:
     """Replace the text between the bench markers of ``readme`` by ``section`` (its title
     dropped, image links made relative to the README). ``section=None`` only checks."""
-    try:
-        text = readme.read_text()
-    except OSError as exc:
-        raise SceneError(f"bench --readme: cannot read {readme}: {exc.strerror}") from exc
-    if text.count(README_START) != 1 or text.count(README_END) != 1 or text.index(README_START) > text.index(README_END):
-        raise SceneError(f"bench --readme: {readme} needs one line '{README_START}' and, after it, one line "
-                         f"'{README_END}'; the section goes between them")
-    if section is None:
-        return
-    prefix = os.path.relpath(out.resolve(), readme.resolve().parent).replace(os.sep, "/")
-    body = section.split("\n", 1)[1].lstrip("\n")
-    body = re.sub(r"\]\(([^)/]+\.png)\)", lambda m: f"]({prefix}/{m.group(1)})", body)
-    head, rest = text.split(README_START)
-    tail = rest.split(README_END, 1)[1]
-    write_atomic(readme, f"{head}{README_START}\n{body.rstrip()}\n{README_END}{tail}".encode())
+    body = None
+    if section is not None:
+        prefix = os.path.relpath(out.resolve(), readme.resolve().parent).replace(os.sep, "/")
+        body = section.split("\n", 1)[1].lstrip("\n")
+        body = re.sub(r"\]\(([^)/]+\.png)\)", lambda m: f"]({prefix}/{m.group(1)})", body)
+    replace_between_markers(readme, README_START, README_END, body, "bench --readme")
 
 
 def _peer_markdown(ratios: list[dict], notes: list[str]) -> str:

@@ -45,7 +45,7 @@ from .gait_feet import Leg, assign_plates, find_legs
 from .gait_model import JointInfo
 from ..errors import GaitError
 from .gait_signals import check_cutoff, filter_coordinates, motion_units
-from ..dynamics.inverse import evaluate
+from ..mechanics.fast_eval import evaluate
 from ..dynamics.result import MechanicalResult
 from ..mechanics.model import Model
 from .opensim_files import Plate, Table, grf_plates, read_grf, read_motion

@@ -115,7 +115,7 @@ class GaitFunctions:
         function and size: making a map costs in proportion to its width (0.16 s for 2,000
         frames of the JW frame function, more than evaluating them), a chunked loop does not.
         """
-        from ..dynamics.inverse import evaluate
+        from ..mechanics.fast_eval import evaluate
 
         N = args[0].shape[1]
         C = max(1, min(N, CHUNK))
@@ -135,7 +135,7 @@ class GaitFunctions:
 
     def check_determined(self, q0, u0, t0: float, where) -> None:
         """Raise if the multipliers and inputs are not determined at the first sample (rank of ``A``)."""
-        from ..dynamics.inverse import evaluate
+        from ..mechanics.fast_eval import evaluate
 
         A = evaluate(self.system, np.reshape(q0, (-1, 1)), np.reshape(u0, (-1, 1)), np.zeros((len(u0), 1)),
                      np.full((1, 1), float(t0)))[0]
@@ -147,7 +147,7 @@ class GaitFunctions:
 
     def balance_scale(self, q, u, udot, t, fext) -> float:
         """Largest entry of ``M u' - f - f_ext`` over all samples (rows): the scale a residual is judged by."""
-        from ..dynamics.inverse import evaluate
+        from ..mechanics.fast_eval import evaluate
 
         b = evaluate(self.system.map(len(t)), q.T, u.T, udot.T, np.reshape(t, (1, -1)))[1].T - fext
         return float(np.abs(b).max(initial=0.0))

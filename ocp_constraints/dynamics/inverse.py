@@ -27,6 +27,7 @@ import casadi as ca
 import numpy as np
 
 from ..mechanics.equations import SystemEquations
+from ..mechanics.fast_eval import evaluate
 from ..errors import ModelError
 from .result import MechanicalResult
 
@@ -110,42 +111,6 @@ def block_triangular_solve(A: ca.SX, b: ca.SX) -> ca.SX | None:
     for k, c in enumerate(cp):
         out[c] = xp[k]
     return ca.vertcat(*out)
-
-
-def evaluate(F: ca.Function, *args) -> list[np.ndarray]:
-    """``F(*args)`` for dense NumPy inputs (each of ``F.size_in(i)``) as dense NumPy outputs.
-
-    Through :meth:`casadi.Function.buffer`: CasADi reads and writes the arrays' memory, so a
-    mapped evaluation over thousands of samples costs no Python list per entry (which
-    ``np.asarray(DM)`` builds, and which costs more than the evaluation itself).
-    """
-    buf, run = F.buffer()
-    keep = []
-    for i, a in enumerate(args):
-        a = np.asarray(a, float)
-        if a.shape != F.size_in(i):
-            raise ModelError(f"{F.name()}: input {i} ('{F.name_in(i)}') has shape {a.shape}, expected {F.size_in(i)}")
-        column_major = np.ascontiguousarray(a.T)
-        keep.append(column_major)
-        buf.set_arg(i, memoryview(column_major))
-    nonzeros = []
-    for i in range(F.n_out()):
-        nz = np.zeros(F.sparsity_out(i).nnz())
-        keep.append(nz)
-        buf.set_res(i, memoryview(nz))
-        nonzeros.append(nz)
-    run()
-    out = []
-    for i, nz in enumerate(nonzeros):
-        sp = F.sparsity_out(i)
-        if sp.is_dense():
-            out.append(nz.reshape(sp.shape, order="F"))
-            continue
-        dense = np.zeros(sp.shape)
-        rows, cols = sp.get_triplet()
-        dense[np.asarray(rows, int), np.asarray(cols, int)] = nz
-        out.append(dense)
-    return out
 
 
 class InverseDynamics:

@@ -81,6 +81,26 @@ def write_atomic(path: Path, data: bytes) -> None:
         raise
 
 
+def replace_between_markers(path: Path, start: str, end: str, text: str | None, what: str) -> None:
+    """Replace what lies between the lines ``start`` and ``end`` of ``path`` by ``text`` (the file
+    written whole); ``text=None`` only checks that the markers are there, once each and in order.
+    ``what`` names the command in the error (a :class:`SceneError` naming the file and the markers)."""
+    from ..errors import SceneError
+
+    try:
+        current = Path(path).read_text()
+    except OSError as exc:
+        raise SceneError(f"{what}: cannot read {path}: {exc.strerror}") from exc
+    if current.count(start) != 1 or current.count(end) != 1 or current.index(start) > current.index(end):
+        raise SceneError(f"{what}: {path} needs one line '{start}' and, after it, one line '{end}'; the text "
+                         f"goes between them")
+    if text is None:
+        return
+    head, rest = current.split(start)
+    tail = rest.split(end, 1)[1]
+    write_atomic(Path(path), f"{head}{start}\n{text.rstrip()}\n{end}{tail}".encode())
+
+
 def write_json(path: Path, data: dict) -> None:
     write_atomic(path, (json.dumps(data, indent=2, sort_keys=False, default=_json_default) + "\n").encode())
 
