@@ -126,12 +126,16 @@ def test_no_fork_with_other_threads_running_or_no_idle_cpu(monkeypatch):
     from ocp_constraints.output.forked import processes
 
     monkeypatch.delenv("OCP_OUTPUT_PROCESSES", raising=False)
+    # The load rule alone first: an earlier test on this xdist worker may have left a thread behind
+    # (a Dask client's, a timer's), which would make processes() answer 1 for the thread rule instead.
+    monkeypatch.setattr(forked.threading, "active_count", lambda: 1)
     monkeypatch.setattr(forked, "_load", lambda: 2.0)            # both cores of a 2-core machine busy
     assert processes(10) == 1
     monkeypatch.setattr(forked, "_load", lambda: 0.3)
     assert processes(10) == min(2, len(os.sched_getaffinity(0)))
     assert processes(3) == 1                                      # fewer than two items each
 
+    monkeypatch.undo()                                            # the real thread count from here on
     monkeypatch.setenv("OCP_OUTPUT_PROCESSES", "2")
     stop = threading.Event()
     thread = threading.Thread(target=stop.wait)
