@@ -106,3 +106,42 @@ def test_riener_edrich_knee_and_ankle_moments_values_and_signs():
     assert Q["knee_flexion"][0] == pytest.approx(-knee, rel=1e-12)
     assert Q["ankle_angle"][0] == pytest.approx(-ankle, rel=1e-12)
     assert set(passive_generalized_forces("riener-edrich-1999", names, np.array([[h, k, a]]))) == {"hip_flexion"}
+
+
+def _riener_edrich_generalized_forces(H, K, A):
+    """The published hip, knee and ankle equations (degrees: hip flexion H, knee flexion K, ankle plantarflexion A
+    positive) as generalized forces on the JW hip_flexion, knee_flexion (negative in flexion) and ankle_angle
+    (positive in dorsiflexion) coordinates, written out here independently of ocp_constraints.biomech.knee_passive."""
+    hip = np.exp(1.4655 - 0.0034 * K - 0.0750 * H) - np.exp(1.3403 - 0.0226 * K + 0.0305 * H) + 8.072
+    knee = (np.exp(1.800 - 0.0460 * A - 0.0352 * K + 0.0217 * H) - np.exp(-3.971 - 0.0004 * A + 0.0495 * K - 0.0128 * H)
+            - 4.820 + np.exp(2.220 - 0.150 * K))
+    ankle = np.exp(2.1016 - 0.0843 * A - 0.0176 * K) - np.exp(-7.9763 + 0.1949 * A + 0.0008 * K) - 1.792
+    return {"hip_flexion": hip, "knee_flexion": -knee, "ankle_angle": -ankle}
+
+
+def test_hill_fibres_passive_tension_is_counted_once_within_the_published_passive_moments():
+    """Riener & Edrich measured all passive structures, muscles' passive tension included: with Hill muscles the
+    fibres' passive force plus the joint-level passive torque must equal the published moment on hip flexion,
+    knee flexion and ankle, not the published moment plus the fibres' share (the double count this checks)."""
+    from ocp_constraints.biomech.knee_model import contact_matrix_function
+    from ocp_constraints.biomech.knee_muscles import MusclePaths
+    from ocp_constraints.biomech.knee_pipeline import run_knee
+    from ocp_constraints.biomech.knee_static import RESERVED, frame_data
+
+    D = J / "reducepoly_subject_GC"
+    run = run_knee(JW_MODEL, D / "IK" / "IK_ngait_og5.mat", D / "GRF" / "GRF_ngait_og5.mat", muscle_model="hill")
+    g, r = run["gait"], run["result"]
+    Qc, R, A = frame_data(g, MusclePaths(), contact_matrix_function())
+    names, P = g.coordinate_names, np.degrees(g.states["p"])
+    published = _riener_edrich_generalized_forces(P[:, names.index("hip_flexion")], -P[:, names.index("knee_flexion")],
+                                                  -P[:, names.index("ankle_angle")])
+    fibres = np.einsum("ncm,nm->nc", R, run["hill"].passive)
+    tension = np.einsum("ncm,nm->nc", R, r.force)          # every muscle's whole tension, active + fibres' passive
+    contact = np.einsum("njc,nj->nc", A, r.lam)
+    for c, m in published.items():
+        i = RESERVED.index(c)
+        assert np.abs(fibres[:, i]).max() > 1.0, c          # the fibres do carry part of it: the check is not empty
+        np.testing.assert_allclose(run["passive_moments"][c] + fibres[:, i], m, rtol=1e-9, atol=1e-9)
+        # the balance the optimiser met: muscles (fibres included) + contact + reserve + joint-level passive = Q
+        np.testing.assert_allclose(tension[:, i] + contact[:, i] + r.reserve[:, i] + run["passive_moments"][c],
+                                   Qc[:, i], atol=1e-4)

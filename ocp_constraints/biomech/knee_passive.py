@@ -79,3 +79,35 @@ def passive_generalized_forces(model: str, coordinate_names: list[str], P: np.nd
         out["knee_flexion"] = -passive_knee_moment(col["hip_flexion"], col["knee_flexion"], col["ankle_angle"])
         out["ankle_angle"] = -passive_ankle_moment(col["knee_flexion"], col["ankle_angle"])
     return out
+
+
+def less_fibre_passive(moments: dict[str, np.ndarray], R: np.ndarray, fibre_force: np.ndarray
+                       ) -> tuple[dict[str, np.ndarray], dict[str, np.ndarray]]:
+    """Split Riener & Edrich's passive moments into the muscle fibres' share and the rest (N m per frame).
+
+    Riener & Edrich 1999 measured the passive moment of *all* passive structures, the muscles'
+    passive tension included. With Hill muscles the fibres' passive force ``Fp`` (frames x
+    muscles, N) already acts along their paths, giving ``sum_m r_mc Fp_m`` on coordinate ``c``
+    (``R``: frames x rows x muscles, rows in :data:`.knee_static.RESERVED` order first). So the
+    joint-level moment that is left for the other structures (capsule, ligaments) is
+    ``M_c - sum_m r_mc Fp_m``, and the total passive moment on ``c`` stays the measured ``M_c``:
+    counted once. Returns ``(joint_level, fibres)`` keyed as ``moments``. Where the fibres give
+    more than ``M_c`` the joint-level part changes sign: the fibre model (rigid tendon, scaled
+    lengths, :mod:`.knee_hill`) is then stiffer than the measured joint, and the remainder says
+    by how much.
+    """
+    from .knee_static import RESERVED
+
+    fibres = {c: np.einsum("nm,nm->n", R[:, RESERVED.index(c), :], fibre_force) for c in moments}
+    return {c: m - fibres[c] for c, m in moments.items()}, fibres
+
+
+def less_joint_passive(Qc: np.ndarray, moments: dict[str, np.ndarray]) -> np.ndarray:
+    """The muscles' (and reserves') share of the balances, ``Q - M_passive`` (N m; rows in
+    :data:`.knee_static.RESERVED` order first): the passive structures act in parallel with the muscles."""
+    from .knee_static import RESERVED
+
+    Qc = Qc.copy()
+    for c, m in moments.items():
+        Qc[:, RESERVED.index(c)] -= m
+    return Qc

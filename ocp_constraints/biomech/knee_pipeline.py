@@ -130,7 +130,10 @@ def run_knee(model, motion, grf, measured=None, muscles_on: bool = True, muscle_
     ``muscle_model``: ``"ideal"`` (``F = a F0``, the default) or ``"hill"`` (De Groote et
     al. 2016 force-length-velocity curves, rigid tendon, :mod:`.knee_hill`; experimental: with
     a rigid tendon the quadriceps' passive forces reach 0.5-1 kN at zero activation in swing,
-    which a subject who bends the knee in swing cannot have).
+    which a subject who bends the knee in swing cannot have). With passive joint moments
+    (``passive_hip`` not ``"none"``) the fibres' passive force is part of the published moment, not
+    added to it: the joint-level torque is the published moment less the fibres' share
+    (:func:`.knee_passive.less_fibre_passive`).
 
     The muscle-path fits and the implant geometry are those of the model *file*
     (:func:`.knee_model_data.knee_model_data`: by its SHA-256; built for a new model when
@@ -190,16 +193,12 @@ def run_knee(model, motion, grf, measured=None, muscles_on: bool = True, muscle_
     phase("contact matrix function")
     Qc, R, A = frame_data(gait, paths, contact_A)
     phase("frame data")
-    passive, moments = None, {}
+    passive, moments, fibre_moments = None, {}, {}
     if passive_hip != "none":           # passive structures carry part of the net moments (Riener & Edrich 1999)
         from .knee_passive import passive_generalized_forces
-        from .knee_static import RESERVED
 
         moments = passive_generalized_forces(passive_hip, gait.coordinate_names, gait.states["p"])
         passive = moments["hip_flexion"]
-        Qc = Qc.copy()
-        for c, m in moments.items():
-            Qc[:, RESERVED.index(c)] -= m
     hill = None
     if muscle_model == "hill":
         from .knee_hill import hill_forces, scale_lengths
@@ -212,6 +211,16 @@ def run_knee(model, motion, grf, measured=None, muscles_on: bool = True, muscle_
         factors, l_opt, l_s = scale_lengths(L_ref, l_opt, l_s, alpha0)
         hill = hill_forces(L, V, F0, l_opt, l_s, alpha0)
         hill.scale = dict(zip(paths.muscles, factors.tolist()))
+        if moments:     # Riener & Edrich measured ALL passive structures, the fibres' passive tension included
+            from .knee_passive import less_fibre_passive
+
+            moments, fibre_moments = less_fibre_passive(moments, R, hill.passive)
+            passive = moments["hip_flexion"]
+    if moments:         # the muscles' (and reserves') share of the balances: Q less the joint-level passive
+        from .knee_passive import less_joint_passive
+
+        Qc = less_joint_passive(Qc, moments)
+    if hill is not None:
         res = solve(gait.t, Qc, R, A, hill.active, muscles_on=muscles_on, passive=hill.passive)
     else:
         res = solve(gait.t, Qc, R, A, F0, muscles_on=muscles_on)
@@ -220,7 +229,7 @@ def run_knee(model, motion, grf, measured=None, muscles_on: bool = True, muscle_
     bw = sum(b.mass for b in gait.osim.bodies.values()) * float(np.linalg.norm(gait.osim.gravity))
     out = {"result": res, "gait": gait, "cycle": (t0, t1), "phases": cycle["phases"], "bw": bw, "F0": F0, "hill": hill, "muscle_model": muscle_model,
            "method": method, "model_data": data, "passive_hip": (passive_hip, passive),
-           "passive_moments": moments,
+           "passive_moments": moments, "fibre_passive_moments": fibre_moments,
            "wall_total": time.perf_counter() - clock, "step_times": phase.table}
     if measured is not None:
         meas = read_measured(measured)
@@ -249,6 +258,8 @@ def write_knee_results(run: dict, out, plots: bool = True, inputs: dict | None =
     for c, m in run.get("passive_moments", {}).items():     # generalized forces on the JW coordinates
         if c != "hip_flexion":
             cols[f"passive_{c}_generalized_force"] = m
+    for c, m in run.get("fibre_passive_moments", {}).items():   # Hill: the fibres' share of Riener & Edrich's
+        cols[f"fibre_passive_{c}_generalized_force"] = m
     write_csv(folder / "loads.csv", r.t, cols)
     write_sto(folder / "loads.sto", r.t, cols)        # OpenSim storage files (inDegrees=no)
     write_sto(folder / "muscle_forces.sto", r.t, {m: r.force[:, i] for i, m in enumerate(r.muscles)})
@@ -270,7 +281,8 @@ def write_knee_results(run: dict, out, plots: bool = True, inputs: dict | None =
                "model_data": run["model_data"].summary() if run.get("model_data") else None,
                "muscle_model": _muscle_model_text(run),
                "peak_reserve_Nm": {c: float(np.abs(r.reserve[:, i]).max()) for i, c in enumerate(RESERVED)},
-               "passive_hip": _passive_text(passive_name, passive, run.get("passive_moments", {})),
+               "passive_hip": _passive_text(passive_name, passive, run.get("passive_moments", {}),
+                                            run.get("fibre_passive_moments", {})),
                "peak_bw": {"medial": float(r.medial.max() / run["bw"]), "lateral": float(r.lateral.max() / run["bw"]),
                            "total": float(r.total.max() / run["bw"])},
                "comparison": run.get("comparison"), "software": software_versions()}
@@ -300,17 +312,24 @@ def write_knee_results(run: dict, out, plots: bool = True, inputs: dict | None =
 
 
 
-def _passive_text(name: str, passive, moments: dict | None = None) -> dict:
+def _passive_text(name: str, passive, moments: dict | None = None, fibres: dict | None = None) -> dict:
     if passive is None:
         return {"model": "none: the muscles (and reserves) carry the whole net hip flexion moment"}
     from .knee_passive import HIP_KNEE_ANKLE, SOURCE, SOURCE_ALL
 
     if name == HIP_KNEE_ANKLE:
-        return {"model": name, "source": SOURCE_ALL,
-                "applied_to": "hip_flexion, knee_flexion and ankle_angle balances (muscles' share = Q - Q_passive)",
-                "range_Nm": {c: [float(m.min()), float(m.max())] for c, m in (moments or {}).items()}}
-    return {"model": name, "source": SOURCE, "applied_to": "hip_flexion balance (muscles' share = Q - M_passive)",
-            "range_Nm": [float(passive.min()), float(passive.max())]}
+        out = {"model": name, "source": SOURCE_ALL,
+               "applied_to": "hip_flexion, knee_flexion and ankle_angle balances (muscles' share = Q - Q_passive)",
+               "range_Nm": {c: [float(m.min()), float(m.max())] for c, m in (moments or {}).items()}}
+    else:
+        out = {"model": name, "source": SOURCE, "applied_to": "hip_flexion balance (muscles' share = Q - M_passive)",
+               "range_Nm": [float(passive.min()), float(passive.max())]}
+    if fibres:          # Hill muscles: their fibres carry part of the measured passive moment, counted once
+        out["hill_fibres"] = ("the published moment is of all passive structures: the Hill fibres' passive "
+                              "generalized force (fibre_range_Nm) is part of it, the joint-level torque (range_Nm) "
+                              "is the rest, so fibres + joint-level = the published moment")
+        out["fibre_range_Nm"] = {c: [float(m.min()), float(m.max())] for c, m in fibres.items()}
+    return out
 
 
 def _muscle_model_text(run) -> dict:

@@ -31,7 +31,8 @@ def add_knee_parser(subparsers) -> None:
                    help="static: per-frame static optimisation (default); collocation: activation dynamics over the cycle")
     k.add_argument("--muscle-model", choices=MUSCLE_MODELS, default="ideal",
                    help="ideal: F = a F0 (default); hill: De Groote et al. 2016 force-length-velocity curves "
-                        "with a rigid tendon (experimental: its passive quadriceps forces are unphysical in swing)")
+                        "with a rigid tendon (experimental: its passive quadriceps forces are unphysical in swing); "
+                        "the fibres' passive force counts as part of --passive's measured moments, not on top")
     f = k.add_mutually_exclusive_group()
     f.add_argument("--cutoff", type=float, default=6.0,
                    help="low-pass cutoff of the coordinates [Hz], 0 < cutoff < the motion's Nyquist frequency (default 6)")
