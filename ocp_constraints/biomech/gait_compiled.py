@@ -20,8 +20,10 @@ serialized CasADi functions and the names a result needs, under
 keyed by the SHA-256 of the ``.osim`` file's bytes, the CasADi version and the source text of
 the modules that build it (so an edit of the code or of the model is another key). The
 frame function is compiled to C (:mod:`ocp_constraints.dynamics.compiled`) when asked for
-(``compiled="always"``), or with ``"auto"`` when a compiled copy is already cached or the
-call has :data:`COMPILE_ABOVE_FRAMES` frames or more (where compiling pays within the call).
+(``compiled="always"``); with ``"auto"`` a compiled copy in the cache is loaded, a call with
+:data:`COMPILE_ABOVE_FRAMES` frames or more compiles now (it pays within the call), and any other
+cache miss runs on CasADi's virtual machine while a detached process compiles the library for the
+next runs (one note: "compiling the frame function in the background for later runs").
 """
 from __future__ import annotations
 
@@ -245,8 +247,9 @@ def _load(key: str) -> GaitFunctions | None:
 def gait_functions(osim: OsimModel, compiled: str = "auto", cache: bool = True, frames: int = 0) -> GaitFunctions:
     """The frame functions of ``osim``: from this process's memory, the disk cache, or built (and saved).
 
-    ``compiled``: ``"auto"`` (machine code when a compiled copy is cached, or compiled now
-    when ``frames`` reaches :data:`COMPILE_ABOVE_FRAMES`), ``"always"`` (compile now if
+    ``compiled``: ``"auto"`` (machine code when a compiled copy is cached, compiled now when
+    ``frames`` reaches :data:`COMPILE_ABOVE_FRAMES`, else compiled in the background for later
+    runs while this one uses the virtual machine), ``"always"`` (compile now if
     needed: about 6 s of CPU for a 24-body model, once) or ``"never"`` (CasADi's virtual
     machine). ``cache=False`` neither reads nor writes the disk cache.
     """
@@ -269,11 +272,14 @@ def gait_functions(osim: OsimModel, compiled: str = "auto", cache: bool = True, 
                           "the model again", file=sys.stderr)
         _MEMO[key] = fns
     if compiled != "never" and not fns.compiled:
-        from ..dynamics.compiled import compiled as machine_code, is_cached
+        from ..dynamics.compiled import compiled as machine_code
 
-        if compiled == "always" or frames >= COMPILE_ABOVE_FRAMES or is_cached(fns.frame, key=key):
-            code = machine_code(fns.frame, key=key)
-            fns.compiled = code is not fns.frame
+        # "auto" on a cache miss: this run on the virtual machine, the C compiled in the background for
+        # the next runs (compiling costs 4-6 s of CPU, this run's frames through the VM far less)
+        now = compiled == "always" or frames >= COMPILE_ABOVE_FRAMES
+        code = machine_code(fns.frame, key=key, when_missing="now" if now else "background", what="the frame function")
+        if code is not fns.frame:
+            fns.compiled = True
             fns.frame = code
             fns._maps.clear()
     return fns

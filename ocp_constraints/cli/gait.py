@@ -37,8 +37,9 @@ def add_gait_parser(subparsers) -> None:
     g.add_argument("--no-plots", action="store_true", help="write no PNG plots and no report.html")
     g.add_argument("--compiled", choices=("auto", "always", "never"), default="auto",
                    help="the model's inverse-dynamics function as compiled C: auto uses a compiled copy when one is "
-                        "cached, always compiles it once per model (about 6 s of CPU for a 24-body model; later "
-                        "runs load it), never uses CasADi's virtual machine (default auto)")
+                        "cached, else runs on CasADi's virtual machine and compiles it in the background for later "
+                        "runs; always compiles it now, once per model (about 5 s of CPU for a 24-body model; later "
+                        "runs load it); never uses CasADi's virtual machine (default auto)")
     g.set_defaults(handler=cli_gait)
 
 
