@@ -42,10 +42,11 @@ FIXED_INTERVALS = (5, 10, 20, 40, 80, 160)
 MAX_FIXED_POINTS = 700
 
 
-def _task(scene: str, task: str) -> OptimalControlProblem:
-    """A built-in task in maximal coordinates: the refinement transcribes those, so the fixed meshes do too."""
+def _task(scene: str, task: str, coordinates: str = "auto") -> OptimalControlProblem:
+    """A built-in task in ``coordinates`` (default the library's "auto"), the same for the refined
+    solves and the fixed meshes they are compared with."""
     problem = build_task(scene, task)[1]
-    problem.coordinates = "maximal"
+    problem.coordinates = coordinates
     return problem
 
 
@@ -89,7 +90,7 @@ def _gated(errors: dict) -> float:
     return max(errors["states"], errors["multipliers"])
 
 
-def minimum_time_swing_up() -> OptimalControlProblem:
+def minimum_time_swing_up(coordinates: str = "auto") -> OptimalControlProblem:
     """The swing-up with free final time in [0.5, 4] s, |torque| <= 5 N m, minimum time (bang-bang)."""
     _, base = build_task("pendulum", "swing_up")
     problem = OptimalControlProblem(base.model, t_final=2.0, t_final_bounds=(0.5, 4.0))
@@ -98,7 +99,7 @@ def minimum_time_swing_up() -> OptimalControlProblem:
     problem.final({"rod.psi": np.pi, "rod.psi_dot": 0.0})
     problem.minimize_final_time()
     problem.set_guess("rod.psi", base.guess["rod.psi"])
-    problem.coordinates = "maximal"
+    problem.coordinates = coordinates
     return problem
 
 
@@ -166,7 +167,7 @@ class MinimumTimeReference:
         return {"states": X, "multipliers": np.array([lam[k] for k in names(sol)["multipliers"]]), "inputs": tau[None, :]}
 
 
-def swing_up_table(runs: int, log=print) -> tuple[list[dict], list[dict]]:
+def swing_up_table(runs: int, log=print, coordinates: str = "auto") -> tuple[list[dict], list[dict]]:
     truth = SwingUpTruth()
     fixed = []
     for d in FIXED_DEGREES:
@@ -174,7 +175,7 @@ def swing_up_table(runs: int, log=print) -> tuple[list[dict], list[dict]]:
             if N * d + 1 > MAX_FIXED_POINTS:
                 continue
             try:
-                sol, wall, cpu = _median_run(lambda: _task("pendulum", "swing_up").solve(Radau(N, degree=d)), runs)
+                sol, wall, cpu = _median_run(lambda: _task("pendulum", "swing_up", coordinates).solve(Radau(N, degree=d)), runs)
             except OCPSolveError as exc:
                 log(f"  fixed radau{d} N={N}: {exc}")
                 continue
@@ -184,7 +185,7 @@ def swing_up_table(runs: int, log=print) -> tuple[list[dict], list[dict]]:
             log(f"  fixed radau{d} N={N}: error {_gated(err):.1e}  {wall:.2f} s wall {cpu:.2f} s cpu")
     rows = []
     for tol in TOLERANCES:
-        sol, wall, cpu = _median_run(lambda: _task("pendulum", "swing_up").solve(tolerance=tol), runs)
+        sol, wall, cpu = _median_run(lambda: _task("pendulum", "swing_up", coordinates).solve(tolerance=tol), runs)
         mr, err = sol.mesh_refinement, true_error(sol, truth)
         ok = [f for f in fixed if f["error"] <= tol]
         best = min(ok, key=lambda f: f["wall_s"]) if ok else None
@@ -224,20 +225,21 @@ class _FineReference:
 
 
 SWITCHING = {
-    "minimum-time swing-up": (minimum_time_swing_up,
+    "minimum-time swing-up": (lambda coordinates: minimum_time_swing_up(coordinates),
                               lambda make: MinimumTimeReference(make().solve(Radau(160, degree=3))),
                               "one-switch bang-bang by shooting (DOP853 rtol 1e-13), hand hinge loads", (1e-3,)),
-    "rolling_disk drive": (lambda: _task("rolling_disk", "drive"),
+    "rolling_disk drive": (lambda coordinates: _task("rolling_disk", "drive", coordinates),
                            lambda make: _FineReference(make().solve(Radau(200, degree=3))), "fine uniform radau3 N=200",
                            (1e-3, 1e-4)),
 }
 
 
-def switching_table(runs: int, cases=tuple(SWITCHING), log=print) -> list[dict]:
+def switching_table(runs: int, cases=tuple(SWITCHING), log=print, coordinates: str = "auto") -> list[dict]:
     """Minimum-time swing-up and rolling-disk drive: final hp meshes vs uniform Radau 3 of the same accuracy."""
     rows = []
     for case in cases:
-        make, reference, ref_label, tolerances = SWITCHING[case]
+        build, reference, ref_label, tolerances = SWITCHING[case]
+        make = lambda build=build: build(coordinates)  # noqa: E731 (one problem per solve, in the run's coordinates)
         ref = reference(make)
         truth = ref.truth
 
@@ -349,13 +351,15 @@ def main(argv=None) -> int:
     ap.add_argument("--runs", type=int, default=3)
     ap.add_argument("--out", default="results/bench/mesh_refinement.md")
     ap.add_argument("--skip-switching", action="store_true")
+    ap.add_argument("--coordinates", choices=("auto", "maximal", "joint"), default="auto",
+                    help="the NLP's coordinates for every solve, refined and fixed (default: the library's auto)")
     ap.add_argument("--switching-only", nargs="*", default=None, metavar="CASE",
                     help=f"only the switching table, for these cases (default all: {', '.join(SWITCHING)})")
     args = ap.parse_args(argv)
     started = time.perf_counter()
-    swing, fixed = swing_up_table(args.runs) if args.switching_only is None else ([], [])
+    swing, fixed = swing_up_table(args.runs, coordinates=args.coordinates) if args.switching_only is None else ([], [])
     cases = tuple(args.switching_only or SWITCHING)
-    switching = [] if args.skip_switching else switching_table(args.runs, cases)
+    switching = [] if args.skip_switching else switching_table(args.runs, cases, coordinates=args.coordinates)
     text = markdown(swing, fixed, switching, args.runs, time.perf_counter() - started)
     path = Path(args.out)
     path.parent.mkdir(parents=True, exist_ok=True)

@@ -67,16 +67,22 @@ def sample_grid(transcription, per_point: int = SAMPLES_PER_POINT) -> tuple[np.n
 
 
 def values_at(solution, fractions: np.ndarray) -> dict[str, np.ndarray]:
-    """States (``nx x n``), multipliers and inputs of ``solution`` at normalized times ``fractions``."""
-    E = solution.transcription.interpolation_matrix(fractions)
-    return {"states": solution.X @ E.T, "multipliers": solution.lam @ E.T, "inputs": solution.inputs @ E.T}
+    """States (``nx x n``), multipliers and inputs of ``solution`` at normalized times ``fractions``,
+    queried by name (:meth:`OCPSolution.interpolate`): the same for a solution of the maximal NLP
+    and of the joint-coordinate one, whose states and multipliers are the bodies' (the joints'
+    multipliers from their bodies' balances, :mod:`~ocp_constraints.mechanics.generalized`)."""
+    t = np.asarray(fractions, dtype=float) * solution.t_final
+    return {q: np.array([solution.interpolate(n, t) for n in labels]).reshape(len(labels), t.size)
+            for q, labels in names(solution).items()}
 
 
 def names(solution) -> dict[str, list[str]]:
-    pr = solution.transcription.problem
-    return {"states": pr.model.coordinate_names + pr.model.speed_names,
-            "multipliers": [f"{c}.lambda" for c in solution.transcription.eqs.constraint_names],
-            "inputs": list(pr.model.inputs)}
+    """The names of each quantity: the bodies' coordinates and speeds, every constraint's
+    ``<constraint>.lambda`` (also those a joint-coordinate NLP has no variable for), the inputs."""
+    eqs = solution.trajectory.eqs
+    return {"states": eqs.model.coordinate_names + eqs.model.speed_names,
+            "multipliers": [f"{c}.lambda" for c in eqs.constraint_names],
+            "inputs": list(eqs.model.inputs)}
 
 
 def compare(values: dict[str, np.ndarray], reference: dict[str, np.ndarray], fractions: np.ndarray,
@@ -115,3 +121,41 @@ def estimate_error(solution, companion, safety: float = SAFETY) -> ErrorEstimate
     if solution.transcription.layout.free_time:
         est.totals["t_final"] = safety * abs(solution.t_final - companion.t_final)
     return est
+
+
+def legendre_tails(solution) -> dict[str, np.ndarray]:
+    """Per quantity and interval, the largest of the last two Legendre coefficients of the
+    solution's polynomial on that interval (degree ``d`` through its ``d + 1`` points), in the
+    scaling of :func:`compare` (states absolute, multipliers and inputs relative to their
+    largest magnitude at the points after ``t = 0``); ``"decay"``: the largest over the
+    quantities of that tail over the interval's largest coefficient after the mean.
+
+    No NLP is solved: the coefficients are a linear map of the point values. The tail is the size
+    of the polynomial's last terms, so it estimates the truncation error where the solution is
+    smooth (coefficients falling geometrically); where it is not (a switch inside the interval:
+    the inputs and multipliers jump), the coefficients do not fall and ``decay`` stays near one.
+    """
+    from numpy.polynomial import legendre
+
+    tr = solution.transcription
+    labels = names(solution)
+    values = {q: np.array([solution.sample(n) for n in labels[q]]).reshape(len(labels[q]), -1) for q in QUANTITIES}
+    scale = {"states": 1.0}
+    for q in ("multipliers", "inputs"):
+        m = np.abs(values[q][:, 1:]).max() if values[q][:, 1:].size else 0.0
+        scale[q] = float(m) if m > 0 else 1.0
+    out = {q: np.zeros(tr.scheme.intervals) for q in (*QUANTITIES, "decay")}
+    mesh = tr.scheme.mesh_fractions
+    for k in range(tr.scheme.intervals):
+        idx = np.asarray(tr.interval_points(k))
+        x = 2.0 * (tr.fractions[idx] - mesh[k]) / (mesh[k + 1] - mesh[k]) - 1.0
+        V = legendre.legvander(x, len(idx) - 1)
+        for q in QUANTITIES:
+            if not values[q].shape[0]:
+                continue
+            a = np.abs(np.linalg.solve(V, values[q][:, idx].T)) / scale[q]      # (d + 1) x components
+            out[q][k] = a[-2:].max()
+            body = a[1:].max(axis=0)
+            rel = np.where(body > 1e-12, a[-2:].max(axis=0) / np.maximum(body, 1e-300), 0.0)
+            out["decay"][k] = max(out["decay"][k], float(rel.max()))
+    return out

@@ -21,7 +21,11 @@ def interpolation_matrix(transcription, fractions) -> np.ndarray:
         rows = np.flatnonzero(k_of == k)
         idx = np.asarray(tr.interval_points(k))
         nodes, s = tr.fractions[idx], fractions[rows]
-        for j in range(len(idx)):
-            others = np.delete(nodes, j)
-            E[rows, idx[j]] = np.prod((s[:, None] - others[None, :]) / (nodes[j] - others[None, :]), axis=1)
+        # Lagrange basis l_j(s) = prod_{m != j} (s - x_m) / (x_j - x_m), all j at once: the product
+        # over m of a (rows x j x m) array whose diagonal m = j is one.
+        num = s[:, None, None] - nodes[None, None, :]
+        den = nodes[:, None] - nodes[None, :]
+        eye = np.eye(len(idx), dtype=bool)
+        ratio = np.where(eye[None], 1.0, num / np.where(eye, 1.0, den)[None])
+        E[rows[:, None], idx[None, :]] = ratio.prod(axis=2)
     return E

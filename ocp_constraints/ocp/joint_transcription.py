@@ -204,8 +204,8 @@ class JointTranscription(Transcription):
         q, u, udot, lam = (np.asarray(v).reshape(-1, P) for v in r.maximal_function.map(P)(
             sol.X[: r.nq], sol.X[r.nq :], sol.D, sol.lam, sol.inputs, sol.t[None, :]))
         traj = Trajectory(full, sol.success, sol.status)
-        for i in range(P):
-            traj.append(sol.t[i], q[:, i], u[:, i], udot[:, i], lam[:, i], sol.inputs[:, i], np.zeros(full.nc), 0.0, 0.0)
+        traj.extend(sol.t, q.T, u.T, udot.T, lam.T, sol.inputs.T, np.zeros((P, full.nc)), np.zeros(P), np.zeros(P),
+                    np.zeros(P))     # all points in one block
         return OCPSolution(self, sol.decision_vector, sol.t, np.vstack([q, u]), udot, lam, sol.inputs, sol.t_final,
                            sol.objective, sol.stats, sol.wall_time, traj)
 

@@ -123,10 +123,8 @@ def _ends(a: float, b: float) -> tuple[float, float]:
 
 def _timed_solve(problem, scheme: Radau, ipopt_options: dict, warm_start, progress):
     """Build and solve one transcription (not cached on the problem: each mesh is used once)."""
-    from .transcription import transcribe
-
     started, cpu = time.perf_counter(), time.process_time()
-    tr = transcribe(problem, scheme)
+    tr = problem.transcription(scheme, cache=False)      # in the problem's own coordinates (joint under "auto")
     try:
         sol = tr.solve(ipopt_options, warm_start, progress=progress)
     finally:
@@ -156,15 +154,10 @@ def solve_to_tolerance(problem, tolerance, method=None, ipopt_options: dict | No
     """
     tol = check_tolerance(tolerance)
     scheme = start_scheme(method)
-    # The refinement transcribes in maximal coordinates ("auto" included); joint coordinates, asked
-    # for explicitly, are refused rather than silently replaced.
-    if getattr(problem, "coordinates", "maximal") == "joint":
-        raise ModelError(f"mesh refinement to a tolerance transcribes in maximal coordinates only; problem "
-                         f"'{problem.model.name}' asks for coordinates='joint': set problem.coordinates = "
-                         f"'maximal' (or 'auto'), or solve on a fixed mesh")
     options = dict(ipopt_options or {})
     history: list[dict] = []
-    record = {"tolerance": tol, "quantities_refined_on": list(GATED), "met": False, "history": history}
+    record = {"tolerance": tol, "quantities_refined_on": list(GATED), "met": False, "history": history,
+              "coordinates": problem.nlp_coordinates}
     parents, warm, total, total_cpu = None, warm_start, 0.0, 0.0
     for r in range(max_refinements + 1):
         entry = {"refinement": r, "intervals": scheme.intervals, "points": scheme.point_count,

@@ -273,8 +273,9 @@ class OptimalControlProblem:
             self.__dict__["_auto_coordinates"] = cached
         return cached[1]
 
-    def transcription(self, method):
-        """The NLP of this problem with ``method``, built once per method and :meth:`structure_key`."""
+    def transcription(self, method, *, cache: bool = True):
+        """The NLP of this problem with ``method``, built once per method and :meth:`structure_key`;
+        ``cache=False`` builds it without keeping it (mesh refinement: each mesh is solved once)."""
         from .transcription import transcribe
 
         if self.coordinates not in COORDINATES:
@@ -284,7 +285,7 @@ class OptimalControlProblem:
 
         key = (method.label, method.intervals, None if method.mesh is None else tuple(method.mesh),
                getattr(method, "degrees", None), self.structure_key())
-        cache = self.__dict__.setdefault("_transcriptions", {})
+        cache = self.__dict__.setdefault("_transcriptions", {}) if cache else {}
         if key not in cache:
             for old in [k for k in cache if k[:4] == key[:4]]:
                 del cache[old]     # the problem changed: its old NLP for this method is of no use

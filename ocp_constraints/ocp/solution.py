@@ -49,8 +49,9 @@ class OCPSolution(Result):
         t = tr.fractions * t_final
         eqs = tr.eqs
         traj = Trajectory(eqs, bool(stats.get("success", False)), str(stats.get("return_status", "unknown")))
-        for i in range(lay.n_points):
-            traj.append(t[i], X[: eqs.nq, i], X[eqs.nq :, i], D[:, i], L[:, i], W[:, i], np.zeros(eqs.nc), 0.0, 0.0)
+        P = lay.n_points      # all points in one block (one append per point cost ~0.1 ms each)
+        traj.extend(t, X[: eqs.nq].T, X[eqs.nq :].T, D.T, L.T, W.T, np.zeros((P, eqs.nc)), np.zeros(P), np.zeros(P),
+                    np.zeros(P))
         return cls(tr, w, t, X, D, L, W, t_final, objective, dict(stats), wall_time, traj)
 
     # -- status -------------------------------------------------------------------------------
