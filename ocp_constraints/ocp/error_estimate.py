@@ -123,39 +123,54 @@ def estimate_error(solution, companion, safety: float = SAFETY) -> ErrorEstimate
     return est
 
 
-def legendre_tails(solution) -> dict[str, np.ndarray]:
-    """Per quantity and interval, the largest of the last two Legendre coefficients of the
-    solution's polynomial on that interval (degree ``d`` through its ``d + 1`` points), in the
-    scaling of :func:`compare` (states absolute, multipliers and inputs relative to their
-    largest magnitude at the points after ``t = 0``); ``"decay"``: the largest over the
-    quantities of that tail over the interval's largest coefficient after the mean.
 
-    No NLP is solved: the coefficients are a linear map of the point values. The tail is the size
-    of the polynomial's last terms, so it estimates the truncation error where the solution is
-    smooth (coefficients falling geometrically); where it is not (a switch inside the interval:
-    the inputs and multipliers jump), the coefficients do not fall and ``decay`` stays near one.
-    """
+# An interval whose inputs' or multipliers' last Legendre coefficient is above this fraction of
+# their largest (after the mean) is not smooth: the coefficients of a jump fall like j^(-1/2),
+# so the last of 4-10 stays at 0.2-1 of the largest (the block's switch: 0.3-0.5), while a resolved
+# smooth arc has them fall geometrically (swing-up at 1e-4: below 1e-3).
+DECAY_LIMIT = 0.1
+# Components whose coefficients after the mean are all below this (relative to the quantity's
+# largest value) are constant on the interval: their ratios are round-off, not a decay.
+NEGLIGIBLE = 1e-6
+
+
+def legendre_decay(solution) -> tuple[np.ndarray, np.ndarray]:
+    """Per interval, the largest over the inputs and over the multipliers of ``max |a_last| / max_{j >= 1} |a_j|``
+    (maxima over the quantity's components, in its relative scale), ``a_j`` the Legendre coefficients
+    of the solution's polynomial through the interval's collocation points; and that ``max |a_last|``
+    (the size of the polynomial's last term, relative to the quantity's largest value). Needs no
+    NLP: the coefficients are a linear map of the point values.
+
+    Where the solution is smooth and resolved, the coefficients fall geometrically and this is small;
+    where the inputs or multipliers jump inside the interval (a switch), it stays near one, at any
+    degree: there a comparison with a higher degree (the companion of :func:`estimate_error`), which
+    resolves the jump no better, is not an upper bound of the error (Liu, Hager and Rao 2015 use the
+    same decay to tell smooth intervals from non-smooth ones). States are left out: at a switch of a
+    bang-bang input they are continuous with their first derivative, and their coefficients fall."""
     from numpy.polynomial import legendre
 
     tr = solution.transcription
     labels = names(solution)
-    values = {q: np.array([solution.sample(n) for n in labels[q]]).reshape(len(labels[q]), -1) for q in QUANTITIES}
-    scale = {"states": 1.0}
-    for q in ("multipliers", "inputs"):
-        m = np.abs(values[q][:, 1:]).max() if values[q][:, 1:].size else 0.0
-        scale[q] = float(m) if m > 0 else 1.0
-    out = {q: np.zeros(tr.scheme.intervals) for q in (*QUANTITIES, "decay")}
+    out, tail = np.zeros(tr.scheme.intervals), np.zeros(tr.scheme.intervals)
     mesh = tr.scheme.mesh_fractions
-    for k in range(tr.scheme.intervals):
-        idx = np.asarray(tr.interval_points(k))
-        x = 2.0 * (tr.fractions[idx] - mesh[k]) / (mesh[k + 1] - mesh[k]) - 1.0
-        V = legendre.legvander(x, len(idx) - 1)
-        for q in QUANTITIES:
-            if not values[q].shape[0]:
+    for q in ("inputs", "multipliers"):
+        values = np.array([solution.sample(n) for n in labels[q]]).reshape(len(labels[q]), -1)
+        if not values.size:
+            continue
+        scale = float(np.abs(values[:, 1:]).max()) if values.shape[1] > 1 else 0.0
+        if scale == 0.0:
+            continue
+        for k in range(tr.scheme.intervals):
+            idx = np.asarray(tr.interval_points(k))
+            x = 2.0 * (tr.fractions[idx] - mesh[k]) / (mesh[k + 1] - mesh[k]) - 1.0
+            # Radau's inputs and multipliers at t_k (the interval's first point) belong to the interval
+            # before (they are its last collocation point), so the fit uses the interval's own points.
+            a = np.abs(np.linalg.solve(legendre.legvander(x[1:], len(idx) - 2), values[:, idx[1:]].T)) / scale
+            if a.shape[0] < 3:
                 continue
-            a = np.abs(np.linalg.solve(V, values[q][:, idx].T)) / scale[q]      # (d + 1) x components
-            out[q][k] = a[-2:].max()
-            body = a[1:].max(axis=0)
-            rel = np.where(body > 1e-12, a[-2:].max(axis=0) / np.maximum(body, 1e-300), 0.0)
-            out["decay"][k] = max(out["decay"][k], float(rel.max()))
-    return out
+            # Tail over the largest variation of any component (one scale for the quantity): a small
+            # component's round-off is not read as a slow decay.
+            body = float(a[1:].max())
+            if body > NEGLIGIBLE and a[-1].max() / body > out[k]:
+                out[k], tail[k] = float(a[-1].max()) / body, float(a[-1].max())
+    return out, tail

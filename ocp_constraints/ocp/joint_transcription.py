@@ -157,6 +157,16 @@ class JointTranscription(Transcription):
         """A start from a solution of this problem (maximal or joint coordinates, any mesh or scheme)."""
         if getattr(solution, "transcription", None) is self:
             return np.asarray(solution.decision_vector, float)
+        theirs = getattr(solution, "transcription", None)
+        if isinstance(theirs, JointTranscription) and theirs.reduced is self.reduced:
+            # The same joint coordinates on another mesh (mesh refinement): their own polynomials at
+            # these points, no fit of the joint coordinates to the bodies' (a third of a refinement's guess time).
+            X, _, L, W, _, _ = (np.asarray(a, float) for a in theirs.layout.split(np.asarray(solution.decision_vector, float)))
+            E = theirs.interpolation_matrix(self.fractions)
+            X, L, W = X @ E.T, L @ E.T, W @ E.T
+            t = self.fractions * solution.t_final
+            A = np.gradient(X[self.reduced.nq :], t, axis=1) if len(t) > 1 else np.zeros((self.reduced.nu, 1))
+            return self._pack(X, L, W, solution.t_final, A=self.accelerations(X, A[:, : self.layout.n_acc], solution.t_final))
         if not isinstance(solution, OCPSolution):
             raise ModelError(f"warm_start must be a solution from problem.solve (an OCPSolution, or an "
                              f"OCPSolveError's .solution), got {type(solution).__name__}")

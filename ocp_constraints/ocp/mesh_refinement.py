@@ -9,10 +9,16 @@
    to the largest load) is at most ``tolerance``; else refine every interval whose estimate
    exceeds it, an hp rule after Patterson, Hager and Rao (2014) (:func:`refine`): a smooth
    interval gets the degree that a fall of the error of about 4x per degree predicts, up to
-   :data:`MAX_DEGREE`, else it is split in two at that degree; an interval refined last time
-   whose estimate fell less than tenfold is not smooth there (a switch, a kink) and is split in
-   two at :data:`MIN_DEGREE`. So non-smooth solutions end with short intervals at their
-   switches, not a globally fine mesh.
+   :data:`MAX_DEGREE`, else it is split at that degree into as many pieces as the rest of the
+   error needs; an interval refined last time whose estimate fell less than tenfold is not smooth
+   there (a switch, a kink) and is split in two at :data:`MIN_DEGREE`. So non-smooth solutions end
+   with short intervals at their switches, not a globally fine mesh;
+4. when the estimate meets the tolerance, check that it can be trusted: an interval whose inputs
+   or multipliers jump inside it (their Legendre coefficients do not fall) withdraws "met" and is
+   named (:func:`_flag_nonsmooth`): there the companion is no upper bound.
+
+Every mesh is transcribed in the problem's own coordinates (joint coordinates under the default
+``coordinates="auto"`` where they apply); the estimate reads states and multipliers by name.
 
 The solution returned is step 1's on the last mesh (its error is what the estimate
 estimates); ``sol.mesh_refinement`` holds the final mesh and degrees, the estimate per
@@ -28,13 +34,14 @@ import time
 import numpy as np
 
 from ..errors import ModelError, OCPSolveError
-from .error_estimate import estimate_error
+from .error_estimate import DECAY_LIMIT, estimate_error, legendre_decay
 from .schemes import Radau
 
 MIN_DEGREE = 3
 MAX_DEGREE = 7          # the companion then reaches Radau's highest degree, 9
 COMPANION_EXTRA = 2
 MAX_REFINEMENTS = 10
+MAX_PIECES = 8          # an interval is split into at most this many in one refinement
 MIN_INTERVAL = 1e-6     # fraction of the horizon below which an interval is not split further
 GATED = ("states", "multipliers")
 START = {"intervals": 10, "degree": 3}
@@ -88,7 +95,8 @@ def refine(scheme: Radau, ratio: np.ndarray, parents: dict | None = None) -> tup
     *rough* (a switch or a kink inside: neither a higher degree nor a split at a high degree
     helps much): it is split in two at :data:`MIN_DEGREE`. A smooth one gets the degree that
     the error's fall of about 4x per degree predicts, ``d + ceil(log(ratio) / log 4)``, if that is at
-    most :data:`MAX_DEGREE`; else it is split in two at :data:`MAX_DEGREE`.
+    most :data:`MAX_DEGREE`; else it is split at :data:`MAX_DEGREE` into the number of pieces that
+    the rest of the ratio needs (error ~ h^MAX_DEGREE), 2 to :data:`MAX_PIECES`.
     """
     mesh, degrees = scheme.mesh_fractions, _degrees(scheme)
     new_mesh, new_degrees, born = [0.0], [], {}
@@ -108,7 +116,13 @@ def refine(scheme: Radau, ratio: np.ndarray, parents: dict | None = None) -> tup
         elif needed <= MAX_DEGREE:
             pieces, degree = [b], needed
         else:
-            pieces, degree = [(a + b) / 2, b], MAX_DEGREE
+            # At MAX_DEGREE the ratio left is r / 4^(MAX_DEGREE - d); n pieces divide it by about
+            # n^MAX_DEGREE (the multipliers' order; the states' is one more): as many pieces as that
+            # predicts, so that a steep tolerance is met in one more refinement, not several halvings
+            # (swing-up at 1e-8: 3 refinements with halving, 2 with this).
+            left = r / 4.0 ** (MAX_DEGREE - d)
+            n = int(min(MAX_PIECES, max(2, math.ceil(left ** (1.0 / MAX_DEGREE)))))
+            pieces, degree = [a + (b - a) * j / n for j in range(1, n)] + [b], MAX_DEGREE
         for lo, hi in zip([a, *pieces[:-1]], pieces):
             born[_ends(lo, hi)] = r
         new_mesh.extend(pieces)
@@ -121,15 +135,48 @@ def _ends(a: float, b: float) -> tuple[float, float]:
     return round(float(a), 13), round(float(b), 13)
 
 
-def _timed_solve(problem, scheme: Radau, ipopt_options: dict, warm_start, progress):
-    """Build and solve one transcription (not cached on the problem: each mesh is used once)."""
+def _build(problem, scheme: Radau, first):
+    """The NLP of ``scheme`` in the problem's own coordinates (joint ones under "auto" where they
+    apply), not cached on the problem (each mesh is solved once). After the first mesh, a
+    joint-coordinate NLP reuses the first one's equations in joint coordinates (the same for every
+    mesh; building them again cost ~10 ms a mesh on the swing-up)."""
+    from .joint_transcription import JointTranscription
+
+    if isinstance(first, JointTranscription):
+        return JointTranscription(problem, scheme, first.reduced)
+    return problem.transcription(scheme, cache=False)
+
+
+def _timed_solve(problem, scheme: Radau, ipopt_options: dict, warm_start, progress, first=None):
+    """Build and solve one transcription; ``first``: an earlier transcription of the same problem."""
     started, cpu = time.perf_counter(), time.process_time()
-    tr = problem.transcription(scheme, cache=False)      # in the problem's own coordinates (joint under "auto")
+    tr = _build(problem, scheme, first)
     try:
         sol = tr.solve(ipopt_options, warm_start, progress=progress)
     finally:
         elapsed, cpu_used = time.perf_counter() - started, time.process_time() - cpu
     return sol, elapsed, cpu_used
+
+
+def _flag_nonsmooth(sol, tol: float, record: dict) -> None:
+    """Withdraw "met" where the estimate cannot be trusted: intervals whose inputs or multipliers
+    are not smooth (their Legendre coefficients do not fall, :func:`.error_estimate.legendre_decay`)
+    and whose polynomial's last term is larger than the tolerance. There a jump (a switch of a
+    bang-bang input) sits inside the interval, the companion resolves it no better than the
+    solution, and their difference is no upper bound (minimum-time swing-up: true state error 2.5x
+    the estimate; the bench). The intervals are named; the solution is kept."""
+    decay, tail = legendre_decay(sol)
+    mesh = sol.transcription.scheme.mesh_fractions
+    bad = np.flatnonzero((decay > DECAY_LIMIT) & (tail > tol))
+    if not len(bad):
+        return
+    record["nonsmooth_intervals"] = [[float(mesh[k]), float(mesh[k + 1])] for k in bad]
+    spots = ", ".join(f"{mesh[k]:.4g}-{mesh[k + 1]:.4g}" for k in bad[:4])
+    record.update(met=False, message=record["message"] + (
+        f", but not trusted: the inputs or multipliers are not smooth on {len(bad)} interval(s), at fractions {spots} "
+        f"of the horizon (a switch inside: their Legendre coefficients do not fall, the largest ratio "
+        f"{decay[bad].max():.2f}); a higher degree resolves a jump no better, so the estimate is no upper bound "
+        f"there. Put a mesh point at the switch (Radau(mesh=...)) or accept the error near it"))
 
 
 def solve_to_tolerance(problem, tolerance, method=None, ipopt_options: dict | None = None, warm_start=None, *,
@@ -158,17 +205,18 @@ def solve_to_tolerance(problem, tolerance, method=None, ipopt_options: dict | No
     history: list[dict] = []
     record = {"tolerance": tol, "quantities_refined_on": list(GATED), "met": False, "history": history,
               "coordinates": problem.nlp_coordinates}
-    parents, warm, total, total_cpu = None, warm_start, 0.0, 0.0
+    parents, warm, total, total_cpu, first = None, warm_start, 0.0, 0.0, None
     for r in range(max_refinements + 1):
         entry = {"refinement": r, "intervals": scheme.intervals, "points": scheme.point_count,
                  "mesh": [float(m) for m in scheme.mesh_fractions], "degrees": [int(d) for d in _degrees(scheme)]}
         history.append(entry)
         try:
             sol, t_sol, c_sol = _timed_solve(problem, scheme, options if warm is None else {**WARM_IPOPT, **options},
-                                             warm, progress)
+                                             warm, progress, first)
+            first = first or sol.transcription
             entry.update(iterations=sol.iterations, time_s=t_sol, cpu_s=c_sol)
             companion, t_comp, c_comp = _timed_solve(problem, companion_of(scheme), {**WARM_IPOPT, **options}, sol,
-                                                     progress)
+                                                     progress, first)
         except OCPSolveError as exc:
             record["message"] = f"refinement {r}: {exc}"
             if exc.solution is not None:
@@ -185,6 +233,7 @@ def solve_to_tolerance(problem, tolerance, method=None, ipopt_options: dict | No
         if all(est.totals[q] <= tol for q in GATED):
             record.update(met=True, message=f"estimated error at most {tol:g} after {r} refinements "
                                             f"({scheme.intervals} intervals, {scheme.point_count} points)")
+            _flag_nonsmooth(sol, tol, record)
             break
         if r == max_refinements:
             record["message"] = (f"estimate still above {tol:g} after {r} refinements (states "
