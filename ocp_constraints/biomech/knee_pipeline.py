@@ -14,7 +14,7 @@ import time
 import numpy as np
 
 from ..errors import OcpConstraintsError
-from .knee_options import METHOD_TEXT, MUSCLE_MODELS, PASSIVE_DEFAULT
+from .knee_options import METHOD_TEXT, MUSCLE_MODELS, PASSIVE_DEFAULT, QUADRICEPS, QUADRICEPS_DEFAULT
 from .knee_model import contact_matrix_function
 from .knee_static import frame_data, solve_static
 from ..errors import KneeError
@@ -121,7 +121,8 @@ class _Phases:
 
 def run_knee(model, motion, grf, measured=None, muscles_on: bool = True, muscle_model: str = "ideal",
              method: str = "static", cutoff: float | None = 6.0, implant_meshes=None, build_model_data: bool = True,
-             passive_hip: str = PASSIVE_DEFAULT, parameters: dict | None = None):
+             passive_hip: str = PASSIVE_DEFAULT, parameters: dict | None = None,
+             quadriceps: str = QUADRICEPS_DEFAULT):
     """Gait cycle -> inverse dynamics -> static optimisation or collocation (-> comparison). Returns a dict.
 
     ``method``: ``"static"`` (per-frame static optimisation, :mod:`.knee_static`) or
@@ -147,6 +148,9 @@ def run_knee(model, motion, grf, measured=None, muscles_on: bool = True, muscle_
     (issue 15's first round, candidate C5); ``"none"`` leaves
     the whole net moment to the muscles (and reserves).
 
+    ``quadriceps``: ``"patellar-ligament"`` gives the vasti the central ligament line's moment arms on
+    the locked knee directions (:mod:`.knee_quadriceps`); ``"model-paths"`` each head's own path.
+
     ``parameters``: condyle centres that replace the model file's (:func:`condyle_overrides`),
     e.g. for a sensitivity study of the condyle spacing.
     """
@@ -158,6 +162,8 @@ def run_knee(model, motion, grf, measured=None, muscles_on: bool = True, muscle_
         raise KneeError(f"unknown passive hip model '{passive_hip}' (use one of {', '.join(PASSIVE_HIP)})")
     if muscle_model not in MUSCLE_MODELS:
         raise KneeError(f"unknown muscle model '{muscle_model}' (use one of {', '.join(MUSCLE_MODELS)})")
+    if quadriceps not in QUADRICEPS:
+        raise KneeError(f"unknown quadriceps line '{quadriceps}' (use one of {', '.join(QUADRICEPS)})")
     if method not in METHODS:
         raise KneeError(f"unknown method '{method}' (use one of {', '.join(METHODS)})")
     if method == "collocation":
@@ -192,6 +198,10 @@ def run_knee(model, motion, grf, measured=None, muscles_on: bool = True, muscle_
     contact_A = contact_matrix_function({**default_parameters(), **data.geometry, **overrides})
     phase("contact matrix function")
     Qc, R, A = frame_data(gait, paths, contact_A)
+    if quadriceps == "patellar-ligament":
+        from .knee_quadriceps import patellar_ligament_arms
+
+        R = patellar_ligament_arms(R, paths.muscles)
     phase("frame data")
     passive, moments, fibre_moments = None, {}, {}
     if passive_hip != "none":           # passive structures carry part of the net moments (Riener & Edrich 1999)
@@ -228,7 +238,7 @@ def run_knee(model, motion, grf, measured=None, muscles_on: bool = True, muscle_
     res.muscles = paths.muscles
     bw = sum(b.mass for b in gait.osim.bodies.values()) * float(np.linalg.norm(gait.osim.gravity))
     out = {"result": res, "gait": gait, "cycle": (t0, t1), "phases": cycle["phases"], "bw": bw, "F0": F0, "hill": hill, "muscle_model": muscle_model,
-           "method": method, "model_data": data, "passive_hip": (passive_hip, passive),
+           "method": method, "model_data": data, "quadriceps": quadriceps, "passive_hip": (passive_hip, passive),
            "passive_moments": moments, "fibre_passive_moments": fibre_moments,
            "wall_total": time.perf_counter() - clock, "step_times": phase.table}
     if measured is not None:
@@ -279,7 +289,7 @@ def write_knee_results(run: dict, out, plots: bool = True, inputs: dict | None =
                "filter": run["gait"].settings.get("filter"), "timing": run["gait"].settings.get("timing"),
                "angles": run["gait"].settings.get("angles"),
                "model_data": run["model_data"].summary() if run.get("model_data") else None,
-               "muscle_model": _muscle_model_text(run),
+               "muscle_model": _muscle_model_text(run), "quadriceps": run.get("quadriceps", "model-paths"),
                "peak_reserve_Nm": {c: float(np.abs(r.reserve[:, i]).max()) for i, c in enumerate(RESERVED)},
                "passive_hip": _passive_text(passive_name, passive, run.get("passive_moments", {}),
                                             run.get("fibre_passive_moments", {})),

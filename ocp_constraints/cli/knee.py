@@ -4,7 +4,7 @@ from __future__ import annotations
 import os
 import sys
 
-from ..biomech.knee_options import METHOD_TEXT, METHODS, MUSCLE_MODELS, PASSIVE_DEFAULT, PASSIVE_HIP
+from ..biomech.knee_options import METHOD_TEXT, METHODS, MUSCLE_MODELS, PASSIVE_DEFAULT, PASSIVE_HIP, QUADRICEPS, QUADRICEPS_DEFAULT
 from ..errors import OcpConstraintsError
 from .interruption import write_if_interrupted
 from .help import JW_MODEL, JW_TRIAL, HelpFormatter, example
@@ -42,6 +42,10 @@ def add_knee_parser(subparsers) -> None:
                    help="passive moments taken off the muscles' share (Riener & Edrich 1999, in vivo, all passive "
                         "structures): riener-edrich-1999-hip-knee-ankle the hip's, knee's and ankle's (default), "
                         "riener-edrich-1999 the hip's only; none: muscles carry the whole net moments")
+    k.add_argument("--quadriceps", choices=QUADRICEPS, default=QUADRICEPS_DEFAULT,
+                   help="the quadriceps' pull on the tibia: model-paths, each head's own path (default); "
+                        "patellar-ligament, the vasti along the central patellar ligament line on the locked knee "
+                        "directions (issue 15, C13)")
     k.add_argument("--implant-meshes", default=None, metavar="DIR",
                    help="folder with the implant's contact meshes (femPoints_188.csv, tibPoints_100.csv, "
                         "facesTib1_100.csv, facesTib2_100.csv): needed once for a model other than the JW model")
@@ -74,6 +78,7 @@ def cli_knee(args) -> int:
         run = run_knee(args.model, args.motion, args.grf, args.measured, muscle_model=args.muscle_model,
                        method=args.method, cutoff=cutoff, implant_meshes=getattr(args, "implant_meshes", None),
                        passive_hip=getattr(args, "passive_hip", PASSIVE_DEFAULT),
+                       quadriceps=getattr(args, "quadriceps", QUADRICEPS_DEFAULT),
                        parameters=_params(getattr(args, "param", [])))
         summary = write_knee_results(run, args.out, plots=not args.no_plots, figure_process=figures,
                                      inputs={"model": str(args.model), "motion": str(args.motion), "grf": str(args.grf),
