@@ -174,20 +174,44 @@ def test_minimal_quadrotor_accelerations_equal_the_maximal_models():
     np.testing.assert_allclose(z, accel, rtol=1e-5, atol=1e-5)
 
 
+def test_suite_accuracy_summary_finds_the_converged_reference_and_where_ours_stays_within_1e_6():
+    """The chain's summary on made-up objectives with a known answer: the reference converging
+    geometrically (changes 1e-3, 1e-5, 1e-7 relative to 1), ours off by 1e-3, 4e-7, 2e-7, 0."""
+    from ocp_constraints.bench.ocp_suite_convergence import summarize
+
+    refs = [1 + 1e-3 + 1e-5 + 1e-7, 1 + 1e-5 + 1e-7, 1 + 1e-7, 1.0]
+    ours = [1 + 1e-3, 1 + 4e-7, 1 - 2e-7, 1.0]
+    steps = [{"mesh": f"Radau7 N={n}", "N": n, "ours_success": True, "ours_objective": o, "ours_s": 1.0, "ours_cpu_s": 1.0,
+              "ref_success": True, "ref_objective": r, "ref_s": 1.0, "ref_cpu_s": 1.0}
+             for n, o, r in zip((20, 40, 80, 160), ours, refs)]
+    out = summarize(steps)
+    assert out["reference_objective"] == 1.0
+    assert out["reference_change"] == pytest.approx(1e-7, rel=1e-6)
+    assert out["reference_ratio"] == pytest.approx(1e-2, rel=1e-4)
+    assert out["reference_tail"] == pytest.approx(1e-7 * 1e-2 / (1 - 1e-2), rel=1e-4)
+    assert out["within_target_from"] == "Radau7 N=40"          # 4e-7 and 2e-7 <= 1e-6; 1e-3 is not
+    assert [s["deviation"] for s in steps[:3]] == pytest.approx([1e-3, 4e-7, 2e-7], rel=1e-6)
+    assert out["agreement"] == pytest.approx(2e-7, rel=1e-6)
+
+
 @pytest.mark.skipif(not available("rockit"), reason="rockit is not installed (pip install rockit-meco)")
-def test_ocp_suite_cli_writes_one_problem_with_ours_rockit_and_the_reference(tmp_path, capsys):
-    """``bench --ocp-suite --only four_bar`` on a coarse mesh (Radau 3, N = 6): ours and rockit succeed
-    from the user-level guess, and our objective agrees with the minimal-coordinate reference on twice
-    the intervals no worse than the reference's own N = 6 solve does (its mesh error)."""
+def test_ocp_suite_cli_writes_one_problem_whose_optimum_equals_the_minimal_formulations_on_every_mesh(tmp_path):
+    """``bench --ocp-suite --only cart_double_pendulum`` on coarse meshes (timed: Radau 3, N = 8;
+    accuracy chain: Radau 3, N = 6, 12, 24): ours and rockit succeed from the user-level guess, and
+    on every mesh of the chain our optimum (joint coordinates, from the library's model) equals the
+    hand-derived minimal-coordinate collocation's: the same discrete problem derived twice."""
     from ocp_constraints.cli import main
 
-    code = main(["bench", "--ocp-suite", "--only", "four_bar", "--runs", "1", "--ocp-n", "6", "--ocp-fine", "6", "3",
-                 "--ocp-coordinates", "maximal", "--out", str(tmp_path)])
+    code = main(["bench", "--ocp-suite", "--only", "cart_double_pendulum", "--runs", "1", "--ocp-n", "8",
+                 "--ocp-fine", "6", "3", "--ocp-coordinates", "maximal", "--out", str(tmp_path)])
     assert code == 0
     row = next(csv.DictReader((tmp_path / "ocp_suite.csv").open()))
-    assert row["problem"] == "four_bar"
+    assert row["problem"] == "cart_double_pendulum"
     for who in ("ours", "rockit", "fine", "reference"):
         assert row[f"{who}_success"] == "True", (who, row)
-    agreement, mesh_error = float(row["agreement"]), float(row["reference_mesh_error"])
-    assert agreement <= mesh_error
-    assert "| four_bar |" in (tmp_path / "ocp_suite.md").read_text()
+    steps = list(csv.DictReader((tmp_path / "ocp_suite.chain.csv").open()))
+    assert [s["mesh"] for s in steps] == ["Radau3 N=6", "Radau3 N=12", "Radau3 N=24"]
+    for s in steps:
+        assert float(s["equal_mesh"]) <= 1e-7, s
+    assert float(row["reference_objective"]) == float(steps[-1]["ref_objective"])
+    assert "| cart_double_pendulum | Radau3 N=12 |" in (tmp_path / "ocp_suite.md").read_text()

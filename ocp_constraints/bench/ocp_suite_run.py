@@ -9,15 +9,14 @@ Per problem (:data:`PROBLEMS`):
 2. rockit: the minimal-coordinate problem of :mod:`.ocp_suite_minimal` in rockit, the same
    degree and ``N``, from the same guess (median time: from an empty ``rockit.Ocp`` to the solution);
    the three alternate run by run, so they see the same machine load;
-3. ours on a fine mesh (``fine``), started from the coarse solution (mesh refinement);
-4. the reference: the minimal-coordinate problem by the plain collocation of :mod:`.ocp_suite_peers`
-   on its fine mesh, started from our fine solution mapped into minimal coordinates where a
-   mapping is given (so it is the same local optimum: the swing-ups have several), else from the
-   linear guess; its own mesh error is estimated by a second solve on half its intervals.
+3. accuracy (:mod:`.ocp_suite_convergence`): ours (in the form pinned per problem) and the
+   minimal-coordinate reference by the plain collocation of :mod:`.ocp_suite_peers` on a chain of
+   meshes, Radau 7 with doubling ``N``, ours warm-started from the previous mesh (the first from
+   the coarse solution), the reference from ours on the same mesh mapped into minimal coordinates
+   (the same local optimum), until the reference has converged; our deviation from it on every mesh.
 
-Agreement is ``|J_fine - J_ref| / |J_ref|``; on our fine mesh, the same with the reference's solve on
-half its intervals (our fine mesh: the same discrete problem in other coordinates). Times are wall (``*_s``) and CPU (``*_cpu_s``) seconds
-of this process. Results: ``ocp_suite.csv`` and ``ocp_suite.md``.
+Times are wall (``*_s``) and CPU (``*_cpu_s``) seconds of this process. Results: ``ocp_suite.csv``
+(one row per problem), ``ocp_suite.chain.csv`` (one row per problem and mesh) and ``ocp_suite.md``.
 """
 from __future__ import annotations
 
@@ -29,38 +28,15 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Callable
 
-import numpy as np
 
 from . import ocp_suite as planar
 from . import ocp_suite_3d as spatial
 from . import ocp_suite_minimal as minimal
 from . import ocp_suite_minimal_3d as minimal3d
-from .ocp_suite_peers import collocate, solve_rockit
+from . import ocp_suite_maps as maps
+from .ocp_suite_convergence import TARGET, chain, converge
+from .ocp_suite_peers import solve_rockit
 from .peers import available
-
-
-def _angles(names: list[str], signs=None) -> Callable:
-    """Minimal states ``(coordinates, their rates)`` from our solution: named coordinates times signs."""
-    signs = signs or [1.0] * len(names)
-
-    def states(sol, inputs: list[str], t: np.ndarray):
-        X = np.array([s * sol.interpolate(n, t) for n, s in zip(names, signs)]
-                     + [s * sol.interpolate(_rate(n), t) for n, s in zip(names, signs)])
-        U = np.array([sol.interpolate(n, t) for n in inputs])
-        return X, U
-
-    return states
-
-
-def _disk_states(sol, inputs: list[str], t: np.ndarray):
-    """The rolling disk's minimal state: (x, y, psi, theta, phi) and the angle rates (its speeds)."""
-    q = [f"disk.{c}" for c in ("x", "y", "psi", "theta", "phi")]
-    X = np.array([sol.interpolate(n, t) for n in q] + [sol.interpolate(f"{n}_dot", t) for n in q[2:]])
-    return X, np.array([sol.interpolate(n, t) for n in inputs])
-
-
-def _rate(name: str) -> str:
-    return name.replace(".x", ".vbar_x") if name.endswith(".x") else f"{name}_dot"
 
 
 @dataclass
@@ -69,25 +45,31 @@ class SuiteProblem:
     ours: Callable
     minimal: Callable
     guess: str                               # the user-level guess, in words
-    fine: tuple[int, int]                    # our fine mesh: (intervals, Radau degree)
-    reference: tuple[int, int]               # the reference's mesh
+    fine: tuple[int, int]                    # the accuracy chain's first mesh: (intervals, Radau degree)
+    finest: int                              # ... and its largest number of intervals (doubling from fine)
+    fine_coordinates: str                    # our form on the chain (pinned: the default 'auto' may change)
     states: Callable | None = None           # our solution -> minimal states and controls
     inputs: list[str] = field(default_factory=list)   # our inputs in the minimal control order (same signs)
 
 
 WALKER_LINKS = [f"{n}.psi" for n in spatial.LINKS]
+# The chains start where the reference's changes are already small (acrobot and four-bar: at
+# N = 20 their optima are not yet resolved) and end where it has converged to CONVERGED
+# (measured: acrobot 1.2e-9 at N = 320, four-bar 1.1e-8 at 640, the others <= 1e-8 by 160).
+# Joint coordinates where 'auto' picks them; the disk and the quadrotor (no library joints) maximal.
 PROBLEMS = [
-    SuiteProblem("acrobot", planar.acrobot, minimal.acrobot, "none", (40, 7), (80, 7),
-                 _angles(["upper.psi", "lower.psi"]), ["elbow_motor"]),
-    SuiteProblem("cart_double_pendulum", planar.cart_double_pendulum, minimal.cart_double_pendulum, "none", (40, 7),
-                 (80, 7), _angles(["cart.x", "rod1.psi", "rod2.psi"]), ["push"]),
+    SuiteProblem("acrobot", planar.acrobot, minimal.acrobot, "none", (40, 7), 320, "joint",
+                 maps.angles(["upper.psi", "lower.psi"]), ["elbow_motor"]),
+    SuiteProblem("cart_double_pendulum", planar.cart_double_pendulum, minimal.cart_double_pendulum, "none", (20, 7),
+                 320, "joint", maps.angles(["cart.x", "rod1.psi", "rod2.psi"]), ["push"]),
     SuiteProblem("four_bar", planar.four_bar, minimal.four_bar, "rocker angle upright (one coordinate)", (40, 7),
-                 (80, 7), _angles(["crank.psi"]), ["motor"]),
-    SuiteProblem("rolling_disk", spatial.rolling_disk, minimal3d.rolling_disk, "none", (40, 7), (80, 7),
-                 _disk_states, ["tau_x", "tau_y", "tau_z"]),
-    SuiteProblem("quadrotor_load", spatial.quadrotor_load, minimal3d.quadrotor_load, "none", (40, 7), (80, 7)),
-    SuiteProblem("walker", spatial.walker, minimal3d.walker, "none", (40, 7), (80, 7),
-                 _angles(WALKER_LINKS, [-1.0] * 5), ["ankle", "hip1", "hip2", "knee1", "knee2"]),
+                 640, "joint", maps.angles(["crank.psi"]), ["motor"]),
+    SuiteProblem("rolling_disk", spatial.rolling_disk, minimal3d.rolling_disk, "none", (20, 7), 320, "maximal",
+                 maps.disk_states, ["tau_x", "tau_y", "tau_z"]),
+    SuiteProblem("quadrotor_load", spatial.quadrotor_load, minimal3d.quadrotor_load, "none", (20, 7), 320, "maximal",
+                 maps.quadrotor_states, ["f1", "f2", "f3", "f4"]),
+    SuiteProblem("walker", spatial.walker, minimal3d.walker, "none", (20, 7), 320, "joint",
+                 maps.angles(WALKER_LINKS, [-1.0] * 5), ["ankle", "hip1", "hip2", "knee1", "knee2"]),
 ]
 
 
@@ -141,8 +123,9 @@ def _say(log, what: str, r: dict, N: int) -> None:
 def run_problem(sp: SuiteProblem, N: int, runs: int, log=print, fine_mesh: tuple[int, int] | None = None,
                 coordinates: tuple[str, ...] = ("maximal", "joint")) -> dict:
     """One row of the suite's table (see the module docstring). ``fine_mesh``: ``(intervals, degree)``
-    of our fine solve instead of the problem's own, the reference then on twice the intervals;
-    ``coordinates``: with ``"joint"``, our problem is also solved in joint coordinates."""
+    of the accuracy chain's first mesh instead of the problem's own, the chain then being that mesh,
+    twice and four times its intervals; ``coordinates``: with ``"joint"``, our problem is also
+    solved (and timed) in joint coordinates."""
     import ocp_constraints as oc
 
     mp = sp.minimal()
@@ -163,58 +146,31 @@ def run_problem(sp: SuiteProblem, N: int, runs: int, log=print, fine_mesh: tuple
             r = _median_row(rows)
             _say(log, f"{sp.name}: {prefix}", r, N)
             row.update({f"{prefix}_{k}": v for k, v in r.items() if k != "setting"})
-    # The fine solve in joint coordinates where those solved the coarse problem (several times
-    # faster), else in maximal coordinates; from the coarse solution of the same kind.
-    via_joint = bool(joint) and joint[-1]["success"]
-    Nf, df = fine_mesh or sp.fine
-    started, cpu = time.perf_counter(), time.process_time()
-    for problem, coarse in ([kept_joint] if via_joint else []) + [kept]:
-        # The joint form gets 300 iterations (a warm-started fine solve needs under 100): the rolling disk's
-        # ran for over 10 min of CPU at Radau 7, N = 40, where the maximal form needs 40 iterations.
-        limit = {"ipopt.max_iter": 300} if via_joint else None
-        try:
-            fine = (problem or sp.ours()).solve(oc.Radau(Nf, degree=df), limit, warm_start=coarse, progress=False)
-        except oc.OCPSolveError as exc:
-            fine = exc.solution
-        _stop_if_interrupted(fine)
-        if fine.success:
-            break
-        if via_joint:           # the joint form failed on the fine mesh: maximal coordinates, from their coarse solution
-            log(f"  {sp.name}: fine mesh in joint coordinates: {fine.status} after {fine.iterations} iterations; "
-                f"solved again in maximal coordinates")
-            via_joint = False
-    row.update(fine_setting=f"Radau{df} N={Nf}{', joint coordinates' if via_joint else ''}", fine_success=fine.success,
-               fine_iterations=fine.iterations, fine_objective=fine.objective, fine_s=time.perf_counter() - started,
-               fine_cpu_s=time.process_time() - cpu)
-    Nr, dr = (2 * fine_mesh[0], fine_mesh[1]) if fine_mesh else sp.reference
-    start = None if sp.states is None else (lambda t: sp.states(fine, sp.inputs, t))
-    ref = collocate(mp, Nr, dr, start=start)
-    half = collocate(mp, Nr // 2, dr, start=start)
-    from_guess = collocate(mp, Nr, dr) if start is not None else ref
-    J = ref["objective"]
-    row.update(reference_setting=ref["setting"] + (", from our fine solution" if start else ", from the linear guess"),
-               reference_success=ref["success"], reference_objective=J,
-               reference_mesh_error=abs(J - half["objective"]) / abs(J), reference_half_objective=half["objective"],
-               agreement_equal_mesh=abs(fine.objective - half["objective"]) / abs(half["objective"]),
-               reference_from_guess_objective=from_guess["objective"], reference_from_guess_success=from_guess["success"],
-               agreement=abs(fine.objective - J) / abs(J))
-    log(f"  {sp.name}: ours {row['fine_setting']}: J = {fine.objective:.10g} ({fine.iterations} iterations, "
-        f"{row['fine_s']:.1f} s); reference {ref['setting']}: J = {J:.10g} (mesh error {row['reference_mesh_error']:.1e}); "
-        f"agreement {row['agreement']:.1e} (on our mesh {row['agreement_equal_mesh']:.1e}); from the linear guess J = {from_guess['objective']:.10g}")
+    # The accuracy chain in the form pinned for the problem, from the coarse solution of that form.
+    problem, coarse = {"maximal": kept, "joint": kept_joint}.get(sp.fine_coordinates) or (None, None)
+    if problem is None:
+        problem = sp.ours(coordinates=sp.fine_coordinates)
+    meshes = chain(fine_mesh, 4 * fine_mesh[0]) if fine_mesh else chain(sp.fine, sp.finest)
+    row.update(converge(sp, mp, problem, coarse, meshes, log, _stop_if_interrupted))
+    row["fine_setting"] += f", {problem.nlp_coordinates} coordinates"
+    log(f"  {sp.name}: reference J = {row['reference_objective']:.12g} ({row['reference_setting']}, changed by "
+        f"{row['reference_change']:.1e} over the last doubling); ours within {TARGET:.0e} from "
+        f"{row['within_target_from']}; deviations {row['deviations']}")
     return row
 
 
 RUN_FIELDS = ["success", "status", "iterations", "objective", "solve_s", "cpu_s", "ipopt_s"]
 COLUMNS = (["problem", "guess", "N"] + [f"{w}_{k}" for w in ("ours", "joint", "rockit") for k in RUN_FIELDS]
-           + ["fine_setting", "fine_success", "fine_iterations", "fine_objective", "fine_s", "fine_cpu_s", "reference_setting",
-              "reference_success", "reference_objective", "reference_mesh_error", "agreement", "reference_half_objective",
-              "agreement_equal_mesh",
-              "reference_from_guess_objective", "reference_from_guess_success"])
+           + ["fine_setting", "fine_success", "fine_objective", "fine_s", "fine_cpu_s", "reference_setting",
+              "reference_success", "reference_objective", "reference_change", "reference_ratio", "reference_tail",
+              "reference_s", "reference_cpu_s", "within_target_from", "deviations", "agreement", "agreement_equal_mesh"])
+CHAIN_COLUMNS = ["problem", "mesh", "N", "degree", "ours_success", "ours_iterations", "ours_objective", "ours_s",
+                 "ours_cpu_s", "ref_success", "ref_iterations", "ref_objective", "ref_s", "ref_cpu_s", "deviation", "equal_mesh"]
 
 
-def csv_text(rows: list[dict]) -> str:
+def csv_text(rows: list[dict], columns: list[str] = COLUMNS) -> str:
     buf = io.StringIO()
-    w = csv.DictWriter(buf, COLUMNS, extrasaction="ignore")
+    w = csv.DictWriter(buf, columns, extrasaction="ignore")
     w.writeheader()
     for r in rows:
         w.writerow({k: (f"{v:.12g}" if isinstance(v, float) else v) for k, v in r.items()})
@@ -238,19 +194,35 @@ def _ratio(r: dict, who: str, key: str) -> str:
 
 def markdown(rows: list[dict], runs: int) -> str:
     """The README table: one line per problem."""
-    head = ("| problem | guess | maximal: success, iterations | maximal: time s (CPU s) | maximal: J | joint coordinates "
-            "(the default, coordinates='auto'): success, iterations | joint: time s (CPU s) | joint: J | rockit: success, "
-            "iterations | rockit: time s (CPU s) | rockit: J | time / rockit's, maximal (CPU) | joint (CPU) | ours, fine mesh: J | reference J (its mesh error) "
-            "| agreement | agreement on our fine mesh |")
+    head = ("| problem | guess | maximal: success, iterations | maximal: time s (CPU s) | maximal: J | joint coordinates: "
+            "success, iterations | joint: time s (CPU s) | joint: J | rockit: success, iterations | rockit: time s (CPU s) "
+            "| rockit: J | time / rockit's, maximal (CPU) | joint (CPU) | converged reference J (finest mesh; its change "
+            "over the last doubling) | ours: deviation from it at N = | ours within 1e-6 from | the two forms on the same "
+            "mesh (largest difference) |")
     lines = [head, "|" + "---|" * 17]
     for r in rows:
         lines.append(
             f"| {r['problem']} | {r['guess']} | {_cell(r, 'ours')} | {_cell(r, 'joint')} | {_cell(r, 'rockit')} | "
             f"{_ratio(r, 'ours', 'solve_s')} ({_ratio(r, 'ours', 'cpu_s')}) | "
             f"{_ratio(r, 'joint', 'solve_s')} ({_ratio(r, 'joint', 'cpu_s')}) | "
-            f"{r['fine_objective']:.10g} ({r['fine_setting']}{'' if r['fine_success'] else ', failed'}) | "
-            f"{r['reference_objective']:.10g} ({r['reference_mesh_error']:.0e}) | {r['agreement']:.1e} | "
+            f"{r['reference_objective']:.12g} ({r['reference_setting'].replace('minimal-coordinate ', '')}"
+            f"{'' if r['reference_success'] else ', a solve failed'}; {r['reference_change']:.1e}) | {r['deviations']}"
+            f"{'' if r['fine_success'] else ' (a solve failed)'} | {r['within_target_from']} | "
             f"{r['agreement_equal_mesh']:.1e} |")
+    return "\n".join(lines) + "\n"
+
+
+def chain_markdown(steps: list[dict]) -> str:
+    """The accuracy chains: one line per problem and mesh."""
+    lines = ["| problem | mesh | ours: J | ours: iterations, time s (CPU s) | reference: J | reference: iterations, "
+             "time s (CPU s) | ours vs the converged reference | ours vs the reference on this mesh |",
+             "|" + "---|" * 8]
+    for s in steps:
+        ok = {True: "", False: " (failed)"}
+        lines.append(f"| {s['problem']} | {s['mesh']} | {s['ours_objective']:.12g}{ok[s['ours_success']]} | "
+                     f"{s['ours_iterations']}, {s['ours_s']:.1f} ({s['ours_cpu_s']:.1f}) | {s['ref_objective']:.12g}"
+                     f"{ok[s['ref_success']]} | {s['ref_iterations']}, {s['ref_s']:.1f} ({s['ref_cpu_s']:.1f}) | "
+                     f"{s['deviation']:.1e} | {s['equal_mesh']:.1e} |")
     return "\n".join(lines) + "\n"
 
 
@@ -282,22 +254,34 @@ def run_suite(out, runs: int = 3, N: int = 20, only: list[str] | None = None, re
     new: dict[str, dict] = {}
 
     def write() -> list[dict]:
-        """The table so far (after every problem, so an interrupted run keeps what it has)."""
-        earlier = _earlier_rows(folder, set(new))          # read now: another run may have written it meanwhile
+        """The tables so far (after every problem, so an interrupted run keeps what it has)."""
+        # Read now: another run may have written them meanwhile. Rows of an older layout are dropped.
+        earlier = {r["problem"]: r for r in _earlier_rows(folder / "ocp_suite.csv", set(new)) if set(COLUMNS) <= set(r)}
         rows = [new.get(sp.name, earlier.get(sp.name)) for sp in PROBLEMS if sp.name in new or sp.name in earlier]
+        old_steps = [r for r in _earlier_rows(folder / "ocp_suite.chain.csv", set(new)) if r["problem"] in earlier]
+        steps = [s for sp in PROBLEMS for s in ([{"problem": sp.name, **c} for c in new[sp.name]["chain"]]
+                                                if sp.name in new else [c for c in old_steps if c["problem"] == sp.name])]
         m = machine()
         minutes = (time.perf_counter() - started) / 60
         text = (f"Regenerated by `ocp-constraints bench --ocp-suite{' --readme ' + str(readme) if readme else ''}` "
                 f"({minutes:.1f} min on this machine: {m['cpus']} cores, Python {m['python']}, CasADi {m['casadi']}, "
-                f"{m['date']}). Times are medians of {runs} runs, each from an empty model to the solution, wall seconds "
-                f"and in brackets CPU seconds; ours (maximal coordinates, and joint coordinates) and rockit (minimal "
-                f"coordinates) all Radau collocation of degree 3 on N = {N} intervals from the same guess. J: the "
-                f"objective. Agreement: |J_fine - J_ref| / |J_ref|, the reference being minimal-coordinate collocation "
-                f"derived separately (ocp_suite_minimal*.py) on twice our fine mesh's intervals; its mesh error is "
-                f"|J_ref - J_half| / |J_ref| with J_half its solve on our fine mesh, and 'agreement on our fine mesh' is "
-                f"|J_fine - J_half| / |J_half|." + (f" Rows of {', '.join(earlier)} are from an earlier run into the same "
-                                                    f"folder." if earlier else "") + "\n\n" + markdown(rows, runs))
+                f"{m['date']}). Speed: medians of {runs} runs, each from an empty model to the solution, wall seconds "
+                f"and in brackets CPU seconds; ours in maximal coordinates and in joint coordinates (coordinates="
+                f"'maximal' / 'joint'; the default 'auto' picks joint coordinates for the four planar problems, maximal "
+                f"for the disk and the quadrotor) and rockit (minimal coordinates), all Radau collocation of degree 3 "
+                f"on N = {N} intervals from the same user-level guess. J: the objective. Accuracy: ours and the "
+                f"minimal-coordinate problem derived separately (ocp_suite_minimal*.py, solved by plain Radau "
+                f"collocation, ocp_suite_peers.collocate) on a chain of meshes, "
+                f"{'Radau %d' % fine_mesh[1] if fine_mesh else 'Radau 7'} with N doubling, ours warm-started from our "
+                f"previous mesh's solution, the reference from ours on the same mesh mapped into minimal coordinates (so "
+                f"both are the same local optimum; each then solved to IPOPT's tol 1e-10), until the reference changes by "
+                f"at most 1e-8 over a doubling (or the chain ends); the converged reference is the finest one. Deviation: |J_ours(N) - J_ref| / |J_ref|; "
+                f"'within 1e-6 from': the coarsest mesh from which every finer one (below the finest) stays within."
+                + (f" Rows of {', '.join(earlier)} are from an earlier run into the same folder." if earlier else "")
+                + "\n\n" + markdown(rows, runs) + "\n<details><summary>The accuracy chains, mesh by mesh "
+                "(results/bench/ocp_suite.chain.csv)</summary>\n\n" + chain_markdown(steps) + "\n</details>\n")
         write_atomic(folder / "ocp_suite.csv", csv_text(rows).encode())
+        write_atomic(folder / "ocp_suite.chain.csv", csv_text(steps, CHAIN_COLUMNS).encode())
         write_atomic(folder / "ocp_suite.md", text.encode())
         if readme is not None:
             splice(Path(readme), text)
@@ -316,11 +300,10 @@ def run_suite(out, runs: int = 3, N: int = 20, only: list[str] | None = None, re
     return rows
 
 
-def _earlier_rows(folder, exclude: set) -> dict:
-    """The rows of ``folder``'s ``ocp_suite.csv`` (an earlier run) for the problems not in ``exclude``."""
-    path = folder / "ocp_suite.csv"
+def _earlier_rows(path: Path, exclude: set) -> list[dict]:
+    """The rows of ``path`` (a CSV of an earlier run) for the problems not in ``exclude``."""
     if not path.exists():
-        return {}
+        return []
 
     def value(text: str):
         if text in ("True", "False"):
@@ -333,7 +316,7 @@ def _earlier_rows(folder, exclude: set) -> dict:
         return text
 
     with path.open() as fh:
-        return {r["problem"]: {k: value(v) for k, v in r.items()} for r in csv.DictReader(fh) if r["problem"] not in exclude}
+        return [{k: value(v) for k, v in r.items()} for r in csv.DictReader(fh) if r["problem"] not in exclude]
 
 
 def splice(readme, text: str | None) -> None:
