@@ -23,7 +23,7 @@ from ..mechanics.equations import SystemEquations
 from ..errors import ModelError
 from ..mechanics.model import Model
 
-COORDINATES = ("auto", "maximal", "joint")
+COORDINATES = ("auto", "maximal", "joint", "condensed")
 
 
 @dataclass
@@ -61,7 +61,9 @@ class OptimalControlProblem:
         results stay those of the bodies. ``"auto"`` (default): joint coordinates where some
         body hangs on such a joint and no closed chain of them exists
         (:func:`~ocp_constraints.mechanics.generalized.joint_coordinates_pay`), else maximal;
-        :attr:`nlp_coordinates` says which.
+        :attr:`nlp_coordinates` says which. ``"condensed"``: the maximal coordinates with the
+        accelerations and multipliers solved from each point's KKT system instead of NLP variables,
+        slacks only at mesh points (:mod:`~ocp_constraints.ocp.condensed_transcription`).
     """
 
     model: Model
@@ -282,6 +284,8 @@ class OptimalControlProblem:
             raise ModelError(f"coordinates must be one of {', '.join(COORDINATES)}, got {self.coordinates!r}")
         if self.nlp_coordinates == "joint":
             from .joint_transcription import transcribe_joint as transcribe
+        elif self.nlp_coordinates == "condensed":
+            from .condensed_transcription import transcribe_condensed as transcribe
 
         key = (method.label, method.intervals, None if method.mesh is None else tuple(method.mesh),
                getattr(method, "degrees", None), self.structure_key())

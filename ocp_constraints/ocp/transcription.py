@@ -276,6 +276,13 @@ class Transcription:
         """A consistent start from the user's guesses (see :mod:`.guess`): coordinates guessed or
         linear between boundary values, on the constraints; speeds, accelerations, multipliers
         and inputs that fit them."""
+        X, W = self._user_guess()
+        X, A, L, W = consistent_guess(self, X, W, self.problem.t_final)
+        return self._pack(X, L, W, self.problem.t_final, A=A)
+
+    def _user_guess(self) -> tuple[np.ndarray, np.ndarray]:
+        """The user's guesses at every point: coordinates (else linear between boundary values) and
+        speeds (NaN where none), inputs (NaN where none)."""
         pr, lay = self.problem, self.layout
         t = self.fractions * pr.t_final
         X = np.full((lay.nx, lay.n_points), np.nan)
@@ -290,8 +297,7 @@ class Transcription:
         for r, n in enumerate(pr.model.inputs):
             if n in pr.guess:
                 W[r] = np.broadcast_to(pr.guess[n](t), t.shape)
-        X, A, L, W = consistent_guess(self, X, W, pr.t_final)
-        return self._pack(X, L, W, pr.t_final, A=A)
+        return X, W
 
     def guess_from(self, solution: OCPSolution) -> np.ndarray:
         """A start from a solution of this problem on another mesh or scheme (:func:`.guess.from_solution`)."""
@@ -306,19 +312,25 @@ class Transcription:
         e, lay = self.eqs, self.layout
         t = self.fractions * t_final
         if A is None:
-            # A start interpolated from a converged solution is on phi = 0 to its interpolation
-            # error already: project only the points that are not (a point's Gauss-Newton costs
-            # ~0.5 ms, a warm start of an hp mesh has hundreds of points).
-            off = np.arange(lay.n_points)
-            if e.phi.numel():
-                phi = np.asarray(self._phi_function().map(lay.n_points)(X[: e.nq], t[None, :], W))
-                off = np.flatnonzero(~np.all(np.abs(phi) <= 1e-12, axis=0))
-            for i in off:
-                X[: e.nq, i] = project_positions(e, X[: e.nq, i], t[i], inputs=W[:, i])
+            self._project_positions(X, W, t)
             A = np.gradient(X[e.nq :], t, axis=1) if lay.n_points > 1 else np.zeros((e.nu, 1))
         parts = [X.ravel(order="F"), A[:, : lay.n_acc].ravel(order="F"), L.ravel(order="F"), W.ravel(order="F"),
                  np.zeros(lay.nh * (lay.n_points - 1)), np.array([t_final] if lay.free_time else [])]
         return np.concatenate(parts)
+
+    def _project_positions(self, X: np.ndarray, W: np.ndarray, t: np.ndarray) -> None:
+        """Move the coordinates of ``X`` (in place) onto ``phi = 0`` at the points that are off it.
+
+        A start interpolated from a converged solution is on phi = 0 to its interpolation error
+        already: project only the points that are not (a point's Gauss-Newton costs ~0.5 ms, a
+        warm start of an hp mesh has hundreds of points)."""
+        e, P = self.eqs, X.shape[1]
+        off = np.arange(P)
+        if e.phi.numel():
+            phi = np.asarray(self._phi_function().map(P)(X[: e.nq], t[None, :], W))
+            off = np.flatnonzero(~np.all(np.abs(phi) <= 1e-12, axis=0))
+        for i in off:
+            X[: e.nq, i] = project_positions(e, X[: e.nq, i], t[i], inputs=W[:, i])
 
     def _phi_function(self) -> ca.Function:
         """``(q, t, inputs) -> phi``, the position-level constraint forms."""
