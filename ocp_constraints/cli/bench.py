@@ -37,13 +37,14 @@ def add_bench_parser(subparsers) -> None:
     b.add_argument("--ocp-suite", action="store_true",
                    help="the user-problem OCP suite instead (acrobot, cart_double_pendulum, four_bar, rolling_disk, "
                         "quadrotor_load, walker): ours, ours in joint coordinates and rockit, against minimal-coordinate "
-                        "references; ocp_suite.csv and .md into --out (--runs: here at least 1)")
+                        "references; ocp_suite.csv, ocp_suite.chain.csv and .md into --out (--runs: here at least 1)")
     b.add_argument("--only", nargs="+", metavar="NAME", help="with --ocp-suite: only these problems")
     b.add_argument("--ocp-n", type=int, default=20, metavar="N", help="with --ocp-suite: intervals of the timed solves (default 20)")
     b.add_argument("--ocp-coordinates", nargs="+", choices=("maximal", "joint"), default=["maximal", "joint"],
                    metavar="KIND", help="with --ocp-suite: our runs: maximal, and with joint also in joint coordinates "
                                         "(default both; maximal always runs)")
     b.add_argument("--ocp-fine", type=int, nargs=2, metavar=("N", "DEGREE"),
-                   help="with --ocp-suite: our fine mesh for every problem (default: each problem's own), the "
-                        "reference on 2N intervals")
+                   help="with --ocp-suite: the accuracy chain (ours and the reference) on N, 2N and 4N intervals of "
+                        "this degree for every problem (default: each problem's own chain, Radau 7 with N doubling "
+                        "until the reference has converged)")
     b.set_defaults(handler=cli_bench)
