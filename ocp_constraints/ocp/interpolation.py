@@ -10,6 +10,15 @@ from __future__ import annotations
 import numpy as np
 
 
+def lagrange_basis(nodes: np.ndarray, s: np.ndarray) -> np.ndarray:
+    """``l_j(s_r)`` (``len(s) x len(nodes)``), the Lagrange basis through ``nodes``:
+    ``prod_{m != j} (s - x_m) / (x_j - x_m)``, all at once (the diagonal ``m = j`` set to one)."""
+    eye = np.eye(len(nodes), dtype=bool)
+    den = np.where(eye, 1.0, nodes[:, None] - nodes[None, :])
+    num = s[:, None, None] - nodes[None, None, :]
+    return np.where(eye[None], 1.0, num / den[None]).prod(axis=2)
+
+
 def interpolation_matrix(transcription, fractions) -> np.ndarray:
     """``E`` (``len(fractions) x points``) at normalized times ``fractions`` in ``[0, 1]``."""
     tr = transcription
@@ -17,15 +26,16 @@ def interpolation_matrix(transcription, fractions) -> np.ndarray:
     mesh = tr.scheme.mesh_fractions
     k_of = np.clip(np.searchsorted(mesh, fractions, side="right") - 1, 0, tr.scheme.intervals - 1)
     E = np.zeros((len(fractions), tr.layout.n_points))
-    for k in np.unique(k_of):
-        rows = np.flatnonzero(k_of == k)
-        idx = np.asarray(tr.interval_points(k))
-        nodes, s = tr.fractions[idx], fractions[rows]
-        # Lagrange basis l_j(s) = prod_{m != j} (s - x_m) / (x_j - x_m), all j at once: the product
-        # over m of a (rows x j x m) array whose diagonal m = j is one.
-        num = s[:, None, None] - nodes[None, None, :]
-        den = nodes[:, None] - nodes[None, :]
-        eye = np.eye(len(idx), dtype=bool)
-        ratio = np.where(eye[None], 1.0, num / np.where(eye, 1.0, den)[None])
-        E[rows[:, None], idx[None, :]] = ratio.prod(axis=2)
+    # Intervals of one local scheme share their nodes in local time (0 at the interval's start, 1 at
+    # its end): one basis evaluation for all their rows (a loop per interval cost ~3 ms a matrix).
+    local_of = np.array([tr.local[k].label for k in range(tr.scheme.intervals)])
+    for label in np.unique(local_of[k_of]):
+        rows = np.flatnonzero(local_of[k_of] == label)
+        k = k_of[rows]
+        first = int(np.flatnonzero(local_of == label)[0])
+        idx0 = np.asarray(tr.interval_points(first))
+        nodes = (tr.fractions[idx0] - mesh[first]) / (mesh[first + 1] - mesh[first])
+        local = (fractions[rows] - mesh[k]) / (mesh[k + 1] - mesh[k])
+        cols = tr.offsets[k][:, None] + np.arange(len(idx0))[None, :]
+        E[rows[:, None], cols] = lagrange_basis(nodes, local)
     return E

@@ -160,7 +160,8 @@ def _timed_solve(problem, scheme: Radau, ipopt_options: dict, warm_start, progre
 
 def _flag_nonsmooth(sol, tol: float, record: dict) -> None:
     """Withdraw "met" where the estimate cannot be trusted: intervals whose inputs or multipliers
-    are not smooth (their Legendre coefficients do not fall, :func:`.error_estimate.legendre_decay`)
+    are not smooth (their Legendre coefficients fall no faster than half a step's,
+    :func:`.error_estimate.legendre_decay`)
     and whose polynomial's last term is larger than the tolerance. There a jump (a switch of a
     bang-bang input) sits inside the interval, the companion resolves it no better than the
     solution, and their difference is no upper bound (minimum-time swing-up: true state error 2.5x
@@ -174,8 +175,8 @@ def _flag_nonsmooth(sol, tol: float, record: dict) -> None:
     spots = ", ".join(f"{mesh[k]:.4g}-{mesh[k + 1]:.4g}" for k in bad[:4])
     record.update(met=False, message=record["message"] + (
         f", but not trusted: the inputs or multipliers are not smooth on {len(bad)} interval(s), at fractions {spots} "
-        f"of the horizon (a switch inside: their Legendre coefficients do not fall, the largest ratio "
-        f"{decay[bad].max():.2f}); a higher degree resolves a jump no better, so the estimate is no upper bound "
+        f"of the horizon (a switch inside: their Legendre coefficients fall as slowly as a "
+        f"step's, up to {decay[bad].max():.2f} of it); a higher degree resolves a jump no better, so the estimate is no upper bound "
         f"there. Put a mesh point at the switch (Radau(mesh=...)) or accept the error near it"))
 
 
