@@ -50,9 +50,10 @@ def add_scene_parsers(sub) -> None:
                    help="hp mesh refinement until the estimated error is at most TOL (states in SI units, "
                         "multipliers relative to the largest load), starting from --intervals N (default 10 "
                         "here) of --degree D (default 3); summary.json gets the final mesh, the estimates and the history")
-    o.add_argument("--coordinates", default="auto", choices=["auto", "maximal", "joint"],
+    o.add_argument("--coordinates", default="auto", choices=["auto", "maximal", "joint", "condensed"],
                    help="NLP coordinates: every body's (maximal) or the joints' (joint: bodies on revolute, "
                         "prismatic and weld joints placed by their joint coordinates; same results files); "
+                        "condensed: every body's, accelerations and multipliers from each point's KKT system; "
                         "auto (default): joint where bodies hang on such joints in no closed chain")
     o.set_defaults(handler=_solve)
 
