@@ -2,13 +2,15 @@
 
 :func:`run_batch` submits one task per run (``retries=2``; a run on a worker that dies is
 rescheduled by the scheduler) and records the results as they arrive in ``DIR/batch.csv``
-and ``DIR/batch.json``. A task runs the command in a subprocess with its ``--out`` at
-``DIR/runs/<id>/`` (appended when the command takes ``--out`` and the template has no
+and ``DIR/batch.json``. A task runs the command in a process of its own (:mod:`.launch`: by
+default a child forked from a warm server of its worker, imports done once) with its ``--out``
+at ``DIR/runs/<id>/`` (appended when the command takes ``--out`` and the template has no
 ``{out}``), captures ``stdout.txt``/``stderr.txt`` there and, after an exit status 0,
 writes ``done.json`` last (atomically): with ``resume=True`` such runs are skipped.
 ``DIR`` must be visible at the same path to the workers (one machine or a shared disk).
 On Ctrl-C the queued runs are cancelled, running ones terminated, the table written with
-them as ``cancelled``, and ``KeyboardInterrupt`` raised again.
+them as ``cancelled``, and ``KeyboardInterrupt`` raised again. The embedded cluster runs
+without Dask's diagnostics that cost CPU while runs compute (:data:`QUIET_CLUSTER`).
 """
 from __future__ import annotations
 
@@ -24,11 +26,21 @@ import uuid
 from dataclasses import dataclass, replace
 from pathlib import Path
 
+from .launch import run_command
 from .spec import OUT, Run, as_runs
 from .table import ProgressLine, atomic_write_json, counts, make_row, read_json, read_summary, write_table
 
 DONE = "done.json"
 _TAKES_OUT: dict[str, bool] = {}
+# Dask settings of the embedded cluster. With two runs computing on two cores, the defaults cost
+# 14-16 % of a core in the scheduler, nannies and workers while nothing happens (tasks that sleep,
+# python scripts/bench_batch.py --idle): the worker's statistical profiler samples every 10 ms,
+# every server checks its event loop every 20 ms, the nanny measures its worker's memory every
+# 100 ms, the system monitor every 500 ms. A batch task is one long call without Dask data,
+# so none of these tell anything; with these settings the same cost is about 2 %.
+QUIET_CLUSTER = {"distributed.worker.profile.enabled": False, "distributed.admin.tick.interval": "1s",
+                 "distributed.worker.memory.monitor-interval": "1s",
+                 "distributed.admin.system-monitor.interval": "10s"}
 
 
 @dataclass
@@ -47,14 +59,15 @@ class BatchResult:
         return all(r["status"] in ("succeeded", "skipped") for r in self.rows)
 
 
-def run_batch(specs, out, client=None, workers: int = 2, resume: bool = False, progress: bool | None = True
-              ) -> BatchResult:
+def run_batch(specs, out, client=None, workers: int = 2, resume: bool = False, progress: bool | None = True,
+              warm: bool = True) -> BatchResult:
     """Run every run of ``specs`` (a spec file path, a list of sweep dicts or of :class:`Run`).
 
     ``client``: a ``distributed.Client`` to use; by default an embedded ``LocalCluster`` of
     ``workers`` single-threaded processes is started and closed. ``progress``: the Dask
     dashboard's address and one status line on stderr (``None``: the line only when stderr is
-    a terminal). Returns the rows; raises ``KeyboardInterrupt`` again after a Ctrl-C.
+    a terminal). ``warm``: runs forked from a warm server per worker (:mod:`.launch`); False:
+    a fresh interpreter per run. Returns the rows; raises ``KeyboardInterrupt`` again after a Ctrl-C.
     """
     try:
         from distributed import Client, LocalCluster, as_completed
@@ -97,7 +110,8 @@ def run_batch(specs, out, client=None, workers: int = 2, resume: bool = False, p
         for i in todo:
             run, run_dir = runs[i], out / "runs" / runs[i].id
             fut = client.submit(execute_run, run.command_args(run_dir), str(run_dir), run.cwd, token,
-                                str(cancel_file), list(run.args), key=f"{run.id}-{token}", retries=2, pure=False)
+                                str(cancel_file), list(run.args), warm, key=f"{run.id}-{token}", retries=2,
+                                pure=False)
             futures[fut] = i
         ac = as_completed(list(futures), with_results=True, raise_errors=False, loop=client.loop)
         while not ac.is_empty():
@@ -135,36 +149,34 @@ def run_batch(specs, out, client=None, workers: int = 2, resume: bool = False, p
     return BatchResult(out, rows)
 
 
-def execute_run(args: list[str], run_dir: str, cwd: str, token: str, cancel_file: str, template: list[str]) -> dict:
-    """The Dask task of one run: the CLI command in a subprocess, outputs in ``run_dir``.
+def execute_run(args: list[str], run_dir: str, cwd: str, token: str, cancel_file: str, template: list[str],
+                warm: bool = True) -> dict:
+    """The Dask task of one run: the CLI command in a process of its own, outputs in ``run_dir``.
 
-    Returns a record (status, exit code, wall time, worker, message, headline numbers),
-    written as ``done.json`` after a success. Re-executed in the same batch (its worker died
-    after finishing), it returns the recorded result instead of running again.
+    Returns a record (status, exit code, wall and CPU time [s], peak memory [MB], worker,
+    message, headline numbers), written as ``done.json`` after a success. Re-executed in the
+    same batch (its worker died after finishing), it returns the recorded result instead of
+    running again.
     """
     run_dir_p = Path(run_dir)
     rec = read_json(run_dir_p / DONE)
     if rec and rec.get("token") == token:
         return rec
-    rec = {"status": "cancelled", "exit_code": None, "wall_time": None, "worker": _worker_address(),
-           "message": "", "numbers": {}, "token": token, "args": template}
+    rec = {"status": "cancelled", "exit_code": None, "wall_time": None, "cpu_time": None, "max_rss_mb": None,
+           "worker": _worker_address(), "message": "", "numbers": {}, "token": token, "args": template}
     if os.path.exists(cancel_file):
         return rec
     if run_dir_p.exists():
         shutil.rmtree(run_dir_p)
     run_dir_p.mkdir(parents=True)
-    env = dict(os.environ)
-    env.setdefault("MPLBACKEND", "Agg")
     t0 = time.perf_counter()
-    with open(run_dir_p / "stdout.txt", "wb") as fout, open(run_dir_p / "stderr.txt", "wb") as ferr:
-        proc = subprocess.Popen([sys.executable, "-m", "ocp_constraints", *args], cwd=cwd, env=env,
-                                stdin=subprocess.DEVNULL, stdout=fout, stderr=ferr, start_new_session=True,
-                                preexec_fn=_die_with_parent())
-        code, cancelled = _wait(proc, cancel_file)
-    rec["wall_time"] = round(time.perf_counter() - t0, 3)
-    if cancelled:
+    done = run_command(args, cwd, str(run_dir_p / "stdout.txt"), str(run_dir_p / "stderr.txt"), cancel_file, warm)
+    rec.update(wall_time=round(time.perf_counter() - t0, 3), cpu_time=done.cpu_time, max_rss_mb=done.max_rss_mb,
+               launch=done.launch)
+    if done.cancelled:
         rec["message"] = "cancelled (the batch was interrupted)"
         return rec
+    code = done.code
     rec.update(status="succeeded" if code == 0 else "failed", exit_code=code, numbers=read_summary(run_dir_p))
     if code != 0:
         rec["message"] = _last_line(run_dir_p / "stderr.txt") or f"exit status {code}"
@@ -173,49 +185,18 @@ def execute_run(args: list[str], run_dir: str, cwd: str, token: str, cancel_file
     return rec
 
 
-def _wait(proc: subprocess.Popen, cancel_file: str) -> tuple[int, bool]:
-    while True:
-        try:
-            return proc.wait(timeout=0.25), False
-        except subprocess.TimeoutExpired:
-            if os.path.exists(cancel_file):
-                proc.terminate()
-                try:
-                    proc.wait(timeout=5)
-                except subprocess.TimeoutExpired:
-                    proc.kill()
-                    proc.wait()
-                return proc.returncode, True
-
-
-def _die_with_parent():
-    """Linux: the run's process is killed when its worker dies (no orphan writing the folder)."""
-    if not sys.platform.startswith("linux"):
-        return None
-    import ctypes
-
-    try:
-        prctl = ctypes.CDLL("libc.so.6", use_errno=True).prctl
-    except (OSError, AttributeError):
-        return None
-    parent = os.getpid()
-
-    def child():   # between fork and exec: PR_SET_PDEATHSIG = 1
-        prctl(1, signal.SIGKILL)
-        if os.getppid() != parent:
-            os._exit(137)
-    return child
-
-
 def _local_cluster(LocalCluster, workers: int):
     """An embedded cluster whose worker processes ignore Ctrl-C (the driver stops them cleanly)."""
     import threading
 
     main = threading.current_thread() is threading.main_thread()
     previous = signal.signal(signal.SIGINT, signal.SIG_IGN) if main else None
-    try:   # spawned workers inherit SIG_IGN
-        return LocalCluster(n_workers=workers, threads_per_worker=1, processes=True, dashboard_address=":0",
-                            host="127.0.0.1", silence_logs=logging.CRITICAL)
+    import dask
+
+    try:   # spawned workers inherit SIG_IGN; the nannies hand the configuration to their workers
+        with dask.config.set(QUIET_CLUSTER):
+            return LocalCluster(n_workers=workers, threads_per_worker=1, processes=True, dashboard_address=":0",
+                                host="127.0.0.1", silence_logs=logging.CRITICAL)
     finally:
         if main:
             signal.signal(signal.SIGINT, previous)
@@ -252,7 +233,8 @@ def _result(fut, res) -> dict:
 
 def _row(run: Run, rec: dict, status: str | None = None) -> dict:
     return make_row(run, status or rec.get("status", "failed"), rec.get("exit_code"), rec.get("wall_time"),
-                    rec.get("worker", ""), rec.get("message", ""), rec.get("numbers"))
+                    rec.get("worker", ""), rec.get("message", ""), rec.get("numbers"), cpu_time=rec.get("cpu_time"),
+                    max_rss_mb=rec.get("max_rss_mb"))
 
 
 def _with_out(run: Run) -> Run:

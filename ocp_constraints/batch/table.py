@@ -2,7 +2,8 @@
 
 A row holds the run's id, its arguments (``{out}`` standing for ``runs/<id>/``), the
 sweep variables' values, status (pending, succeeded, failed, skipped, cancelled), exit
-code, wall time, worker, the message of a failure, and the headline numbers of the
+code, wall time [s], the run process's own CPU time [s] and peak resident memory [MB],
+worker, the message of a failure, and the headline numbers of the
 run's ``summary.json`` flattened with dots (``objective``, ``iterations``, ``success``,
 ``max_constraint_residual.position``, any key containing ``rmse`` ...). A headline key
 that collides with a row field is prefixed ``summary.`` (e.g. ``summary.status``).
@@ -23,7 +24,7 @@ import time
 from pathlib import Path
 
 STATUSES = ("pending", "succeeded", "failed", "skipped", "cancelled")
-FIELDS = ["id", "status", "exit_code", "wall_time", "worker", "message", "args"]
+FIELDS = ["id", "status", "exit_code", "wall_time", "cpu_time", "max_rss_mb", "worker", "message", "args"]
 # summary.json entries worth a column (dotted paths); any scalar whose key contains "rmse" is added too
 HEADLINE = ["success", "status", "objective", "iterations", "t_reached", "max_constraint_residual.position",
             "max_constraint_residual.velocity", "energy.relative_error", "reintegration.max_state_deviation"]
@@ -71,10 +72,10 @@ def read_summary(run_dir: str | os.PathLike) -> dict:
 
 
 def make_row(run, status: str = "pending", exit_code=None, wall_time=None, worker: str = "",
-             message: str = "", numbers: dict | None = None) -> dict:
-    """A table row of ``run`` (a :class:`~ocp_constraints.batch.spec.Run`)."""
-    row = {"id": run.id, "status": status, "exit_code": exit_code, "wall_time": wall_time, "worker": worker,
-           "message": message, "args": list(run.args)}
+             message: str = "", numbers: dict | None = None, cpu_time=None, max_rss_mb=None) -> dict:
+    """A table row of ``run`` (a :class:`~ocp_constraints.batch.spec.Run`); times in s, memory in MB."""
+    row = {"id": run.id, "status": status, "exit_code": exit_code, "wall_time": wall_time, "cpu_time": cpu_time,
+           "max_rss_mb": max_rss_mb, "worker": worker, "message": message, "args": list(run.args)}
     row.update({f"var.{k}": v for k, v in run.values.items()})
     row.update(numbers or {})
     return row
