@@ -35,6 +35,7 @@ from ocp_constraints.biomech.knee_model import contact_matrix_function  # noqa: 
 from ocp_constraints.biomech.knee_muscles import PRIMARY, SECONDARY, MusclePaths, muscle_parameters  # noqa: E402
 from ocp_constraints.biomech.knee_passive import HIP_KNEE_ANKLE, passive_generalized_forces, passive_hip_moment  # noqa: E402,E501
 from ocp_constraints.biomech.knee_pipeline import gait_cycle, read_measured  # noqa: E402
+from ocp_constraints.biomech.knee_quadriceps import patellar_ligament_arms  # noqa: E402
 from ocp_constraints.biomech.knee_static import RESERVED, frame_data  # noqa: E402
 
 J = ROOT.parent / "shared" / "data" / "grand-challenge-knee-jw"
@@ -194,12 +195,15 @@ def main(out_dir: Path):
             ("C2b", "objective + contact-load term 1 (N_total/BW)^2", {"contact_weight": 1.0}),
             ("C4", "diagnostic, not a model: hip reserves 1000x cheaper", {"reserve_weights": cheap_hip}),
             ("C5", "passive hip flexion moment, Riener & Edrich 1999 (first round's model)", {"Q": Qp}),
-            ("C7", "passive hip, knee and ankle moments, Riener & Edrich 1999 (preregistered, adopted)", {"Q": Q7}),
+            ("C7", "passive hip, knee and ankle moments, Riener & Edrich 1999 (preregistered, adopted in round 2)",
+             {"Q": Q7}),
             ("C9", "C7 with volume-weighted effort sum V a^2, Happee & van der Helm 1995 (reported only)",
              {"Q": Q7, "activation_weights": volume}),
             ("C11", "C7 with Hill active force-length-velocity (rigid tendon), no fibre passive force (reported only)",
              {"Q": Q7, "F0": hill_active}),
-            ("C12", "C7's passive moments as passive tension along the muscles' paths (reported only)", {"Q": Q12})]
+            ("C12", "C7's passive moments as passive tension along the muscles' paths (reported only)", {"Q": Q12}),
+            ("C13", "C7 with the vasti pulling the tibia along the patellar ligament's line on the locked knee "
+                    "directions (preregistered, adopted)", {"Q": Q7, "R": patellar_ligament_arms(R, mus)})]
     arms = opensim_arms(gait, mus)
     if arms is not None:
         Rg, Ra = R.copy(), R.copy()

@@ -43,9 +43,9 @@ def add_knee_parser(subparsers) -> None:
                         "structures): riener-edrich-1999-hip-knee-ankle the hip's, knee's and ankle's (default), "
                         "riener-edrich-1999 the hip's only; none: muscles carry the whole net moments")
     k.add_argument("--quadriceps", choices=QUADRICEPS, default=QUADRICEPS_DEFAULT,
-                   help="the quadriceps' pull on the tibia: model-paths, each head's own path (default); "
-                        "patellar-ligament, the vasti along the central patellar ligament line on the locked knee "
-                        "directions (issue 15, C13)")
+                   help="the quadriceps' pull on the tibia: patellar-ligament (default), the vasti along the central "
+                        "patellar ligament line on the locked knee directions (issue 15, C13); model-paths, each "
+                        "head's own path in the model file")
     k.add_argument("--implant-meshes", default=None, metavar="DIR",
                    help="folder with the implant's contact meshes (femPoints_188.csv, tibPoints_100.csv, "
                         "facesTib1_100.csv, facesTib2_100.csv): needed once for a model other than the JW model")
