@@ -43,6 +43,13 @@ def add_gait_parser(subparsers) -> None:
     g.set_defaults(handler=cli_gait)
 
 
+def _warm_figure() -> None:
+    """In the drawing process: a gait figure drawn once ahead (imported there, not before the fork)."""
+    from ..output.joint_plots import warm_gait_figure
+
+    warm_gait_figure()
+
+
 def cli_gait(args) -> int:
     """Run ``gait``; errors in the input print one line and return 2."""
     # the per-sample systems are small (about 150 unknowns): BLAS threads only contend (measured:
@@ -50,8 +57,8 @@ def cli_gait(args) -> int:
     os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
     from ..output.drawing_process import DrawingProcess
 
-    # forked before the heavy imports: it imports matplotlib while this process computes
-    drawer = None if getattr(args, "no_plots", False) else DrawingProcess()
+    # forked before the heavy imports: it imports matplotlib and draws a first figure while this process computes
+    drawer = None if getattr(args, "no_plots", False) else DrawingProcess(warm=_warm_figure)
     from ..biomech.gait import run_inverse_dynamics
     from ..biomech.gait_report import write_gait_results
 

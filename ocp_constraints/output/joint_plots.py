@@ -25,6 +25,21 @@ def write_gait_plots(out: Path, t, joints: list[tuple[str, str | None, dict[str,
     return write_figures(out, jobs, dpi=100)
 
 
+def warm_gait_figure(dpi: int = 100) -> None:
+    """Draw a gait joint figure (four panels, :func:`write_gait_plots`) once over made-up data, in memory, and
+    keep it for the first real one (:func:`~.plots.keep_warm`): run by a drawing process while it waits."""
+    import io
+
+    from .plots import PNG_COMPRESSION, keep_warm
+
+    t = np.linspace(0.0, 1.0, 50)
+    loads = {f"warm.{k}_{a}": np.sin((i + 1) * t) for i, (k, a) in enumerate((k, a) for k in "FM" for a in "xyz")}
+    loads["warm.power"] = t
+    fig = joint_figure(t, loads, "warm", ("generalized force [N m or N]", {"q": t, "r": -t}), title="warm")
+    fig.savefig(io.BytesIO(), format="png", dpi=dpi, pil_kwargs={"compress_level": PNG_COMPRESSION})
+    keep_warm(fig)
+
+
 def knee_figure(t, predicted: dict[str, np.ndarray], label: str, measured=None, phases=()):
     """Medial, lateral and total contact force (body weights): predicted, measured (``(t, {name: values})``)
     and the gait phases shaded (``[(t0, t1, "stance" or "swing"), ...]``)."""
