@@ -159,13 +159,13 @@ def _timed_solve(problem, scheme: Radau, ipopt_options: dict, warm_start, progre
 
 
 def _flag_nonsmooth(sol, tol: float, record: dict) -> None:
-    """Withdraw "met" where the estimate cannot be trusted: intervals whose inputs or multipliers
-    are not smooth (their Legendre coefficients fall no faster than half a step's,
-    :func:`.error_estimate.legendre_decay`)
-    and whose polynomial's last term is larger than the tolerance. There a jump (a switch of a
-    bang-bang input) sits inside the interval, the companion resolves it no better than the
-    solution, and their difference is no upper bound (minimum-time swing-up: true state error 2.5x
-    the estimate; the bench). The intervals are named; the solution is kept."""
+    """Withdraw "met" where the estimate cannot be trusted (and say so where it is not met either):
+    intervals whose inputs or multipliers are not smooth (their Legendre coefficients fall no faster
+    than half a step's, :func:`.error_estimate.legendre_decay`) and whose polynomial's last term is
+    larger than the tolerance. There a jump (a switch of a bang-bang input) sits inside the
+    interval, the companion resolves it no better than the solution, and their difference is no
+    upper bound (minimum-time swing-up: true state error 2.5x the estimate; the bench). The
+    intervals are named in ``nonsmooth_intervals`` and the message; the solution is kept."""
     decay, tail = legendre_decay(sol)
     mesh = sol.transcription.scheme.mesh_fractions
     bad = np.flatnonzero((decay > DECAY_LIMIT) & (tail > tol))
@@ -174,10 +174,12 @@ def _flag_nonsmooth(sol, tol: float, record: dict) -> None:
     record["nonsmooth_intervals"] = [[float(mesh[k]), float(mesh[k + 1])] for k in bad]
     spots = ", ".join(f"{mesh[k]:.4g}-{mesh[k + 1]:.4g}" for k in bad[:4])
     record.update(met=False, message=record["message"] + (
-        f", but not trusted: the inputs or multipliers are not smooth on {len(bad)} interval(s), at fractions {spots} "
+        f"{', but' if record['message'].startswith('estimated') else '; and the estimate is'} not trusted: the inputs "
+        f"or multipliers are not smooth on {len(bad)} interval(s), at fractions {spots} "
         f"of the horizon (a switch inside: their Legendre coefficients fall as slowly as a "
-        f"step's, up to {decay[bad].max():.2f} of it); a higher degree resolves a jump no better, so the estimate is no upper bound "
-        f"there. Put a mesh point at the switch (Radau(mesh=...)) or accept the error near it"))
+        f"step's, up to {decay[bad].max():.2f} of it); a higher degree resolves a jump no better, so the "
+        f"estimate is no upper bound there. Put a mesh point at the switch (Radau(mesh=...)) or accept the error "
+        f"near it"))
 
 
 def solve_to_tolerance(problem, tolerance, method=None, ipopt_options: dict | None = None, warm_start=None, *,
@@ -247,6 +249,7 @@ def solve_to_tolerance(problem, tolerance, method=None, ipopt_options: dict | No
                 spots = ", ".join(f"{a:.4g}-{b:.4g}" for a, b in record["rough_intervals"][:4])
                 record["message"] += (f"; the estimate stays above it on intervals that refinement does not improve "
                                       f"(a switch: inputs and multipliers jump there), at fractions {spots} of the horizon")
+            _flag_nonsmooth(sol, tol, record)
             break
         # Rough intervals (see refine): where the solution switches; a jump of the inputs and
         # multipliers there keeps their largest error near the jump's size at any mesh.
