@@ -6,7 +6,8 @@ Runs the inverse dynamics of ngait_og5 once and the static optimisation of the d
 Riener & Edrich 1999 hip, knee and ankle moments, quadriceps through the patellar ligament) with one
 passive term removed at a time (``results/knee/preregistration.md``, D1-D4): the knee equation's extension
 stop ``exp(2.220 - 0.150 K)`` (D1), the whole knee equation (D2), the ankle equation (D3), the hip
-equation (D4). Diagnostics, not models: nothing here is adopted. Writes ``passive_terms.md``: RMSE (BW)
+equation (D4); and C14, the stop as posterior-capsule tension ``M_stop / rho`` (rho the implant's condyle
+radius) pressing the tibia along the tray axis. Diagnostics and a reported-only candidate: nothing here is adopted. Writes ``passive_terms.md``: RMSE (BW)
 per compartment, the windows' mean loads against the measured ones, and the knee-crossing muscles'
 mean forces in terminal stance. The measured loads are used for the table only.
 """
@@ -22,8 +23,9 @@ import numpy as np
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 from ocp_constraints.biomech.gait import run_inverse_dynamics  # noqa: E402
+from ocp_constraints.biomech.knee_contact import stored_geometry  # noqa: E402
 from ocp_constraints.biomech.knee_model import contact_matrix_function  # noqa: E402
-from ocp_constraints.biomech.knee_muscles import MusclePaths, muscle_parameters  # noqa: E402
+from ocp_constraints.biomech.knee_muscles import SECONDARY, MusclePaths, muscle_parameters  # noqa: E402
 from ocp_constraints.biomech.knee_passive import HIP_KNEE_ANKLE, passive_generalized_forces  # noqa: E402
 from ocp_constraints.biomech.knee_pipeline import compare, gait_cycle, read_measured  # noqa: E402
 from ocp_constraints.biomech.knee_quadriceps import patellar_ligament_arms  # noqa: E402
@@ -57,7 +59,7 @@ def main(out: Path) -> None:
                 "D4 without the hip equation": {c: m for c, m in full.items() if c != "hip_flexion"}}
     tm, mm, ml = read_measured(TRIAL["KCF"])
     med_m, lat_m = np.interp(gait.t, tm, mm), np.interp(gait.t, tm, ml)
-    head = ("| variant | RMSE medial / lateral / total (BW) | " + " | ".join(
+    head = ("| variant | medial; lateral; total: RMSE (BW) / R^2 / peak error (BW) | " + " | ".join(
         f"{w} medial / lateral / total (BW)" for w in WINDOWS) + " | peak reserve (N m) | terminal stance mean force (N): "
         + ", ".join(SHOWN) + " |")
     lines = [head, "|---" * (4 + len(WINDOWS)) + "|"]
@@ -66,13 +68,20 @@ def main(out: Path) -> None:
         k = (gait.t >= a) & (gait.t <= b)
         row.append(f"{med_m[k].mean() / bw:.2f} / {lat_m[k].mean() / bw:.2f} / {(med_m + lat_m)[k].mean() / bw:.2f}")
     lines.append("| " + " | ".join(row + ["", ""]) + " |")
+    # C14: the stop as posterior-capsule tension at the condyle radius: T = M_stop / rho along the tray axis
+    rho = 0.5 * sum(stored_geometry()[f"{s}_radius"] for s in ("medial", "lateral"))
+    capsule = np.exp(2.220 - 0.150 * K) / rho
+    variants["C14 stop as capsule tension at the condyle radius (reported only)"] = full
     for name, moments in variants.items():
         Q = Qc.copy()
         for c, m in moments.items():
             Q[:, RESERVED.index(c)] -= m
+        if name.startswith("C14"):      # its generalized force on knee_ty is -T: the muscles' share is Q + T
+            Q[:, len(RESERVED) + SECONDARY.index("knee_ty")] += capsule
         r = solve_static(gait.t, Q, R, A, F0)
         cmp = compare(r.t, {"medial": r.medial, "lateral": r.lateral, "total": r.total}, (tm, mm, ml), bw)
-        cells = [name, " / ".join(f"{cmp[k]['rmse_bw']:.2f}" for k in ("medial", "lateral", "total"))]
+        cells = [name, "; ".join(f"{cmp[k]['rmse_bw']:.2f} / {cmp[k]['r2']:.2f} / {cmp[k]['peak_error_bw']:+.2f}"
+                                 for k in ("medial", "lateral", "total"))]
         for a, b in WINDOWS.values():
             k = (r.t >= a) & (r.t <= b)
             cells.append(f"{r.medial[k].mean() / bw:.2f} / {r.lateral[k].mean() / bw:.2f} / {r.total[k].mean() / bw:.2f}")
@@ -82,7 +91,7 @@ def main(out: Path) -> None:
         cells.append(", ".join(f"{r.force[k, mus.index(m)].mean():.0f}" for m in SHOWN))
         lines.append("| " + " | ".join(cells) + " |")
         print(lines[-1], flush=True)
-    text = ("# Riener & Edrich's passive terms one at a time (diagnostics D1-D4, ngait_og5, static, C13)\n\n"
+    text = ("# Riener & Edrich's passive terms one at a time (diagnostics D1-D4, C14; ngait_og5, static, C13)\n\n"
             f"`python scripts/knee_passive_terms.py`; BW = {bw:.1f} N; windows' means. Not models: "
             "`preregistration.md`.\n\n" + "\n".join(lines) + "\n")
     out.mkdir(parents=True, exist_ok=True)
