@@ -29,3 +29,10 @@ def test_the_side_vasti_take_the_central_ligament_lines_locked_rows_and_nothing_
 def test_a_model_without_the_jw_quadriceps_is_refused_naming_them():
     with pytest.raises(KneeError, match=r"no \['vasint'\].*--quadriceps model-paths"):
         patellar_ligament_arms(np.zeros((1, len(ROWS), 3)), ["recfem", "vaslat", "vasmed"], ROWS)
+
+
+def test_an_unknown_quadriceps_line_is_refused_before_any_file_is_read():
+    from ocp_constraints.biomech.knee_pipeline import run_knee
+
+    with pytest.raises(KneeError, match="unknown quadriceps line 'tendon' .*model-paths, patellar-ligament"):
+        run_knee("no_model.osim", "ik", "grf", quadriceps="tendon")
