@@ -1,16 +1,25 @@
-"""Benchmark of ``ocp-constraints batch``: the same batch on 1 and on 2 Dask workers.
+"""Benchmark of ``ocp-constraints batch``: 1 against 2 Dask workers, and where the CPU goes.
 
-    python scripts/bench_batch.py [--runs 12] [--repeats 3] [--t-final 1.0]
+    python scripts/bench_batch.py [--runs 12] [--repeats 3] [--t-final 1.0] [--launch warm|fresh|both]
+    python scripts/bench_batch.py --idle 10        # Dask's own CPU while tasks wait: its defaults against ours
+    python scripts/bench_batch.py --fixed-cost 5   # CPU to start a run: forked from a warm server against fresh
+    python scripts/bench_batch.py --costs 3        # CPU time and peak memory per run of each kind (README)
 
-Runs a batch of ``--runs`` pendulum simulations (a sweep of the rod length) on an
-embedded ``LocalCluster`` with 1 worker and with 2 workers (single-threaded processes),
-alternating, ``--repeats`` times each, and prints the wall times of whole batches
-(cluster start and shutdown included), their medians and the speed-up ratio
-median(1 worker) / median(2 workers). Each batch writes into a fresh temporary folder.
+The default mode runs batches of ``--runs`` pendulum simulations (a sweep of the rod length) on an
+embedded ``LocalCluster`` configured as ``run_batch`` configures it, with 1 and 2 workers,
+alternating, ``--repeats`` times each. Per batch it prints the wall time of the whole batch
+(cluster start, the runs, shutdown) and of each phase, and the CPU time of every process: the
+runs (each run's own, from ``wait4``), the driver (scheduler, nannies, client, the table), the
+worker processes and their fork servers. The overhead is everything but the runs. At the end,
+medians and the speed-up median(1 worker) / median(2 workers) of the whole batch and of its run
+phase, and each run's median CPU time with 1 and with 2 workers (if it grows with 2 workers,
+the two runs slow each other down in the hardware: caches, memory, the hypervisor). Wall times
+are only meaningful on an otherwise idle machine; CPU times much less so.
 """
 from __future__ import annotations
 
 import argparse
+import logging
 import os
 import statistics
 import sys
@@ -18,25 +27,172 @@ import tempfile
 import time
 from pathlib import Path
 
-from ocp_constraints.batch import run_batch
+import psutil
+
+from ocp_constraints.batch import launch, run_batch
+from ocp_constraints.batch.runner import _local_cluster
+
+ROOT = Path(__file__).resolve().parents[1]
+DATA = ROOT.parent / "shared" / "data"
+JW = DATA / "grand-challenge-knee-jw"
+G2354 = DATA / "opensim-gait2354-subject01"
+JW_ARGS = ["--model", str(JW / "reducepoly_model/JW_All_Body_Model-scaled_forvisualization_leftright_v42.osim"),
+           "--motion", str(JW / "reducepoly_subject_GC/IK/IK_ngait_og5.mat"),
+           "--grf", str(JW / "reducepoly_subject_GC/GRF/GRF_ngait_og5.mat")]
+KINDS = {   # the README's "Cost per run" rows
+    "simulate pendulum (10 s)": ["simulate", "pendulum", "--t-final", "10"],
+    "simulate ball_socket (10 s)": ["simulate", "ball_socket", "--t-final", "10"],
+    "solve pendulum (Radau 3, N = 50)": ["solve", "pendulum", "--scheme", "radau", "--degree", "3",
+                                         "--intervals", "50"],
+    "solve ball_socket (reach, Radau 3, N = 50)": ["solve", "ball_socket", "--task", "reach", "--scheme", "radau",
+                                                   "--degree", "3", "--intervals", "50"],
+    "gait gait2354 subject01": ["gait", "--model", str(G2354 / "subject01_simbody.osim"),
+                                "--motion", str(G2354 / "subject01_walk1_ik.mot"),
+                                "--grf", str(G2354 / "subject01_walk1_grf.mot")],
+    "gait JW ngait_og5": ["gait", *JW_ARGS],
+    "knee JW ngait_og5 (static)": ["knee", *JW_ARGS, "--measured", str(JW / "reducepoly_subject_GC/KCF/KCF_ngait_og5.mat")],
+}
 
 
-def _sweeps(runs: int, t_final: float) -> list[dict]:
-    lengths = [round(0.5 + 0.1 * k, 2) for k in range(runs)]
-    return [{"args": ["simulate", "pendulum", "--t-final", str(t_final), "--param", "length={L}", "--no-plots"],
-             "L": lengths}]
+def _cpu(p: psutil.Process) -> float:
+    try:
+        t = p.cpu_times()
+    except psutil.NoSuchProcess:
+        return 0.0
+    return t.user + t.system
 
 
-def _one(sweeps: list[dict], workers: int) -> tuple[float, float]:
-    """Wall time of a whole batch and the sum of its runs' wall times."""
+def _cluster(workers: int, quiet: bool = True):
+    from distributed import Client, LocalCluster
+
+    if quiet:
+        cluster = _local_cluster(LocalCluster, workers)   # exactly as run_batch starts its own
+    else:
+        cluster = LocalCluster(n_workers=workers, threads_per_worker=1, processes=True, dashboard_address=":0",
+                               host="127.0.0.1", silence_logs=logging.CRITICAL)
+    client = Client(cluster)
+    pids = client.run(os.getpid)
+    return cluster, client, [psutil.Process(pid) for pid in pids.values()]
+
+
+def _batch(sweeps: list[dict], workers: int, warm: bool) -> dict:
+    """One whole batch on its own embedded cluster: wall per phase, CPU per process."""
+    w0, c0 = time.perf_counter(), time.process_time()
+    cluster, client, procs = _cluster(workers)
+    w1, c1 = time.perf_counter(), time.process_time()
+    k1 = sum(_cpu(p) for p in procs)
     with tempfile.TemporaryDirectory(prefix="bench_batch_") as tmp:
-        t0 = time.perf_counter()
-        result = run_batch(sweeps, Path(tmp) / "out", workers=workers, progress=False)
-        wall = time.perf_counter() - t0
+        result = run_batch(sweeps, Path(tmp) / "out", client=client, progress=False, warm=warm)
+    w2, c2 = time.perf_counter(), time.process_time()
+    k2 = sum(_cpu(p) for p in procs)
+    servers = sum(_cpu(s) for p in procs for s in p.children())   # fork servers (started within the batch)
+    client.close()
+    cluster.close()
+    w3 = time.perf_counter()
     if not result.ok:
         failed = [r for r in result.rows if r["status"] != "succeeded"]
         sys.exit(f"bench_batch: {len(failed)} run(s) failed, e.g. {failed[0]['id']}: {failed[0]['message']}")
-    return wall, sum(r["wall_time"] for r in result.rows)
+    runs = [r["cpu_time"] for r in result.rows]
+    return {"whole": w3 - w0, "start": w1 - w0, "phase": w2 - w1, "close": w3 - w2, "driver_start": c1 - c0,
+            "driver": c2 - c1, "workers": k2 - k1, "servers": servers, "runs_cpu": sum(runs), "run_cpu": runs,
+            "runs_wall": sum(r["wall_time"] for r in result.rows)}
+
+
+def speedup(args) -> None:
+    lengths = [round(0.5 + 0.1 * k, 2) for k in range(args.runs)]
+    sweeps = [{"args": ["simulate", "pendulum", "--t-final", str(args.t_final), "--param", "length={L}",
+                        "--no-plots", "--out", "{out}"], "L": lengths}]
+    modes = {"warm": [True], "fresh": [False], "both": [True, False]}[args.launch]
+    print(f"bench_batch: {args.runs} runs of `simulate pendulum --t-final {args.t_final:g} --no-plots` per batch, "
+          f"{args.repeats} batches per worker count and launch; {os.cpu_count()} CPUs, load average "
+          f"{os.getloadavg()[0]:.2f} at start")
+    got: dict = {}
+    for rep in range(args.repeats):
+        for warm in modes:
+            for workers in (1, 2):
+                b = _batch(sweeps, workers, warm)
+                got.setdefault((warm, workers), []).append(b)
+                over = b["driver"] + b["workers"] + b["servers"]
+                print(f"  repeat {rep + 1}, {'warm ' if warm else 'fresh'}, {workers} worker(s): whole {b['whole']:6.2f} s "
+                      f"(start {b['start']:.2f}, runs {b['phase']:.2f}, close {b['close']:.2f}); runs' wall sum "
+                      f"{b['runs_wall']:.2f} s. CPU: runs {b['runs_cpu']:.2f} s ({b['runs_cpu'] / args.runs:.3f} per run), "
+                      f"driver {b['driver']:.2f} (+{b['driver_start']:.2f} at start), workers {b['workers']:.2f}, "
+                      f"fork servers {b['servers']:.2f}: overhead {over:.2f} s = {100 * over / b['runs_cpu']:.1f} % "
+                      f"of the runs' CPU", flush=True)
+    print(f"medians (load average {os.getloadavg()[0]:.2f} at the end):")
+    for warm in modes:
+        m = {w: {k: statistics.median(b[k] for b in got[(warm, w)]) for k in ("whole", "phase")} for w in (1, 2)}
+        per_run = {w: statistics.median(x for b in got[(warm, w)] for x in b["run_cpu"]) for w in (1, 2)}
+        print(f"  {'warm ' if warm else 'fresh'}: whole batch 1 worker {m[1]['whole']:.2f} s, 2 workers "
+              f"{m[2]['whole']:.2f} s: speed-up {m[1]['whole'] / m[2]['whole']:.2f}x; run phase {m[1]['phase']:.2f} / "
+              f"{m[2]['phase']:.2f} s: {m[1]['phase'] / m[2]['phase']:.2f}x; CPU per run {per_run[1]:.3f} s (1 worker) "
+              f"and {per_run[2]:.3f} s (2 workers)")
+
+
+def idle(args) -> None:
+    """CPU of the driver and the workers while every worker's task sleeps ``args.idle`` s."""
+    print(f"bench_batch --idle: {args.idle:g} s sleeping tasks on 2 workers, CPU in % of one core "
+          f"(load average {os.getloadavg()[0]:.2f})")
+    for rep in range(args.repeats):
+        for quiet in (False, True):
+            cluster, client, procs = _cluster(2, quiet)   # quiet: QUIET_CLUSTER, as run_batch's own cluster
+            client.submit(time.sleep, 0.1, pure=False).result()
+            me = psutil.Process()
+            d0, k0, t0 = _cpu(me), [_cpu(p) for p in procs], time.perf_counter()
+            client.gather([client.submit(time.sleep, args.idle, pure=False) for _ in procs])
+            d1, k1, el = _cpu(me), [_cpu(p) for p in procs], time.perf_counter() - t0
+            client.close()
+            cluster.close()
+            print(f"  {'run_batch settings' if quiet else 'Dask defaults     '}: driver {100 * (d1 - d0) / el:.1f} %, "
+                  "workers " + ", ".join(f"{100 * (b - a) / el:.1f} %" for a, b in zip(k0, k1)), flush=True)
+
+
+def fixed_cost(args) -> None:
+    """CPU of a run that does almost nothing, forked from a warm server and as a fresh interpreter."""
+    tiny = ["simulate", "pendulum", "--t-final", "0.01", "--dt", "0.01", "--no-plots"]
+    cpu = {True: [], False: []}
+    with tempfile.TemporaryDirectory(prefix="bench_batch_") as tmp:
+        t0 = time.process_time()
+        server = launch.ForkServer()
+        print(f"bench_batch --fixed-cost: a fork server's imports took {server.preload_cpu:.2f} s CPU "
+              f"(once per worker; the launcher's own {time.process_time() - t0:.2f} s)")
+        for k in range(args.fixed_cost):
+            for warm in (True, False):
+                out = os.path.join(tmp, f"run{k}{warm}")
+                files = (os.path.join(tmp, "stdout.txt"), os.path.join(tmp, "stderr.txt"), os.path.join(tmp, "no"))
+                if warm:
+                    o = server.run([*tiny, "--out", out], tmp, *files)
+                else:
+                    o = launch.run_command([*tiny, "--out", out], tmp, *files, warm=False)
+                assert o.code == 0, open(files[1]).read()
+                cpu[warm].append(o.cpu_time)
+        server.close()
+    w, f = statistics.median(cpu[True]), statistics.median(cpu[False])
+    print(f"  `{' '.join(tiny)}`, median of {args.fixed_cost}: fresh interpreter {f:.3f} s CPU, forked from the "
+          f"warm server {w:.3f} s: {f - w:.3f} s less per run (load average {os.getloadavg()[0]:.2f})")
+
+
+def costs(args) -> None:
+    """Each kind of run, ``args.costs`` times, as a batch on one worker: CPU time and peak memory per run."""
+    print(f"bench_batch --costs: each kind {args.costs} times in a batch on 1 worker, warm and fresh; medians "
+          f"(load average {os.getloadavg()[0]:.2f} at start)")
+    print("\n| run | CPU time, warm | CPU time, fresh | wall (this load) | peak memory |\n|---|---:|---:|---:|---:|")
+    for name, argv in KINDS.items():
+        rows = {True: [], False: []}
+        for rep in range(args.costs):
+            for warm in (True, False):
+                with tempfile.TemporaryDirectory(prefix="bench_batch_") as tmp:
+                    r = run_batch([{"args": [*argv, "--no-plots", "--out", "{out}"]}], Path(tmp) / "out", workers=1,
+                                  progress=False, warm=warm)
+                if not r.ok:
+                    sys.exit(f"bench_batch: {name} failed: {r.rows[0]['message']}")
+                rows[warm] += r.rows
+        med = {w: {k: statistics.median(x[k] for x in rows[w]) for k in ("cpu_time", "wall_time", "max_rss_mb")}
+               for w in rows}
+        print(f"| `{name}` | {med[True]['cpu_time']:.2f} s | {med[False]['cpu_time']:.2f} s | "
+              f"{med[True]['wall_time']:.1f} s | {med[False]['max_rss_mb']:.0f} MB |", flush=True)
+    print(f"\n(load average {os.getloadavg()[0]:.2f} at the end; peak memory of the fresh runs: a forked run also "
+          "counts the pages it shares with its server)")
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -44,23 +200,22 @@ def main(argv: list[str] | None = None) -> int:
     p.add_argument("--runs", type=int, default=12, help="runs per batch (default 12, at least 12)")
     p.add_argument("--repeats", type=int, default=3, help="batches per worker count (default 3)")
     p.add_argument("--t-final", type=float, default=1.0, help="simulated time per run [s] (default 1.0)")
+    p.add_argument("--launch", choices=["warm", "fresh", "both"], default="warm",
+                   help="runs forked from a warm server (run_batch's default), fresh interpreters, or both")
+    p.add_argument("--idle", type=float, metavar="SECONDS", help="measure Dask's own CPU while tasks sleep")
+    p.add_argument("--fixed-cost", type=int, metavar="N", help="measure the CPU to start a run, N times each way")
+    p.add_argument("--costs", type=int, metavar="N", help="CPU and memory per run of each kind, N runs each")
     args = p.parse_args(argv)
     if args.runs < 12 or args.repeats < 1:
         p.error("--runs must be at least 12 and --repeats at least 1")
-    sweeps = _sweeps(args.runs, args.t_final)
-    print(f"bench_batch: {args.runs} runs of `simulate pendulum --t-final {args.t_final:g}` per batch, "
-          f"{args.repeats} batches per worker count; {os.cpu_count()} CPUs, load average "
-          f"{os.getloadavg()[0]:.2f} at start")
-    times: dict[int, list[float]] = {1: [], 2: []}
-    for rep in range(args.repeats):
-        for workers in (1, 2):
-            wall, busy = _one(sweeps, workers)
-            times[workers].append(wall)
-            print(f"  repeat {rep + 1}, {workers} worker(s): batch {wall:6.2f} s (runs' own wall times sum "
-                  f"to {busy:6.2f} s)", flush=True)
-    m1, m2 = statistics.median(times[1]), statistics.median(times[2])
-    print(f"median batch wall time: 1 worker {m1:.2f} s, 2 workers {m2:.2f} s")
-    print(f"speed-up 1 -> 2 workers: {m1 / m2:.2f}x (load average {os.getloadavg()[0]:.2f} at the end)")
+    if args.idle:
+        idle(args)
+    elif args.fixed_cost:
+        fixed_cost(args)
+    elif args.costs:
+        costs(args)
+    else:
+        speedup(args)
     return 0
 
 

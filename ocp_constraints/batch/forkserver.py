@@ -3,12 +3,14 @@
 A run started as ``python -m ocp_constraints ARGS`` spends about 0.3 s of CPU importing NumPy,
 CasADi and the library before it computes anything (``python -X importtime``), and 0.3-0.5 s
 more for matplotlib when it draws. This server is started once by a Dask worker
-(:mod:`.launch`), imports those modules once (:data:`PRELOAD`), then reads one request per
+(:mod:`.launch`), imports those modules once (:data:`PRELOAD`; :data:`PLOTTING` before the
+first run that draws, i.e. has no ``--no-plots``), then reads one request per
 line on stdin (JSON: ``args``, ``cwd``, ``stdout``, ``stderr``) and forks a child that runs
 ``python -m ocp_constraints ARGS`` in itself: its own session and process group, its folder as
 working directory (also ``sys.path[0]``, as ``-m`` sets it), stdin ``/dev/null``, stdout and
 stderr to the run's files, and the interpreter's normal exit (atexit handlers, flushed
-streams). On stdout it answers ``{"pid": ...}`` at the fork and ``{"exit": ..., "cpu": ...,
+streams). On stdout it answers ``{"pid": ...}`` at the fork (``{"refused": why}`` if it has
+more than one thread then) and ``{"exit": ..., "cpu": ...,
 "max_rss_kb": ...}`` when the child ends (``os.wait4``: the run's own CPU time and peak memory).
 A child is an independent process as a fresh one would be: Ctrl-C/SIGTERM reach it alone, its
 crash costs nothing else. Forking is safe because the server has one thread (it says how many
@@ -30,9 +32,10 @@ import traceback
 
 # What runs of the CLI import before computing: third-party libraries first, then the modules the
 # subcommands' handlers import (the CLI imports them lazily to keep --help fast).
-PRELOAD = ("numpy", "casadi", "matplotlib", "matplotlib.pyplot", "ocp_constraints", "ocp_constraints.cli.main",
-           "ocp_constraints.scenes.registry", "ocp_constraints.scenes.tasks", "ocp_constraints.dynamics.simulate",
-           "ocp_constraints.ocp.schemes", "ocp_constraints.output.plots")
+PRELOAD = ("numpy", "casadi", "ocp_constraints", "ocp_constraints.cli.main", "ocp_constraints.scenes.registry",
+           "ocp_constraints.scenes.tasks", "ocp_constraints.dynamics.simulate", "ocp_constraints.ocp.schemes")
+# 0.6 s of CPU that a batch of --no-plots runs would pay for nothing (0.25 s without them)
+PLOTTING = ("matplotlib", "matplotlib.pyplot", "ocp_constraints.output.plots")
 
 
 def thread_count() -> int:
@@ -53,15 +56,7 @@ def serve() -> None:
     os.dup2(2, 1)   # a stray print of a preloaded module must not corrupt the replies
     os.close(devnull)
     t0 = time.process_time()
-    failed = {}
-    for name in PRELOAD:
-        try:
-            importlib.import_module(name)
-        except Exception as exc:   # (e.g. no matplotlib) the child imports what it needs itself
-            failed[name] = f"{type(exc).__name__}: {exc}"
-    # The preloaded objects out of the collector's sight: a child's collections and its exit then
-    # neither walk nor copy them (its exit cost 0.22 s of CPU more without this; 0.04 s with it).
-    gc.freeze()
+    failed = _preload(PRELOAD)
     _reply(replies, {"ready": True, "pid": os.getpid(), "threads": thread_count(),
                      "preload_cpu": round(time.process_time() - t0, 3), "failed": failed})
     reader = os.fdopen(requests, "rb")
@@ -72,6 +67,11 @@ def serve() -> None:
         if not line.strip():   # stdin closed: the worker is gone or done
             return
         request = json.loads(line)
+        if "--no-plots" not in request["args"] and PLOTTING[-1] not in sys.modules:
+            _preload(PLOTTING)
+        if thread_count() != 1:   # (an import started a thread: forking now could deadlock the child)
+            _reply(replies, {"refused": f"the fork server has {thread_count()} threads"})
+            continue
         pid = os.fork()
         if pid == 0:
             code = _child(request, (requests, replies), parent=me)
@@ -81,6 +81,20 @@ def serve() -> None:
         _reply(replies, {"exit": os.waitstatus_to_exitcode(status), "cpu": round(usage.ru_utime + usage.ru_stime, 4),
                          "max_rss_kb": usage.ru_maxrss})
     sys.exit(code)   # the child leaves as `python -m` would: atexit handlers, threads joined, streams flushed
+
+
+def _preload(names) -> dict[str, str]:
+    """Import ``names``; returns those that failed, with why (the child then imports what it needs itself)."""
+    failed = {}
+    for name in names:
+        try:
+            importlib.import_module(name)
+        except Exception as exc:   # e.g. no matplotlib
+            failed[name] = f"{type(exc).__name__}: {exc}"
+    # The preloaded objects out of the collector's sight: a child's collections and its exit then
+    # neither walk nor copy them (its exit cost 0.22 s of CPU more without this; 0.04 s with it).
+    gc.freeze()
+    return failed
 
 
 def _child(request: dict, server_fds: tuple[int, int], parent: int) -> int:

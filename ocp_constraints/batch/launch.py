@@ -48,6 +48,10 @@ class ServerLost(RuntimeError):
     """A fork server stopped answering."""
 
 
+class Refused(RuntimeError):
+    """A fork server would not fork (it has more than one thread): nothing was started."""
+
+
 def run_environment() -> dict[str, str]:
     env = dict(os.environ)
     for key, value in DEFAULT_ENV.items():
@@ -64,6 +68,10 @@ def run_command(args: list[str], cwd: str, stdout: str, stderr: str, cancel_file
         return _fresh(args, cwd, stdout, stderr, cancel_file)
     try:
         outcome = server.run(args, cwd, stdout, stderr, cancel_file)
+    except Refused as exc:
+        server.close()
+        _COLD.append(str(exc))
+        return _fresh(args, cwd, stdout, stderr, cancel_file)
     except BaseException:
         server.close()
         raise
@@ -125,7 +133,10 @@ class ForkServer:
 
     def run(self, args, cwd, stdout, stderr, cancel_file) -> Outcome:
         self._send({"args": list(args), "cwd": str(cwd), "stdout": str(stdout), "stderr": str(stderr)})
-        pid = self._message(60.0)["pid"]
+        started = self._message(START_TIMEOUT)   # (after the server's imports for a first run that draws)
+        if "refused" in started:
+            raise Refused(started["refused"])
+        pid = started["pid"]
         cancelled, killed_at = False, None
         while True:
             msg = self._message(POLL, allow_timeout=True)
