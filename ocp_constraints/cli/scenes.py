@@ -152,6 +152,8 @@ def _solve(args) -> int:
         print(f"  mesh refinement to {mr['tolerance']:g}: {'met' if mr['met'] else 'NOT met'} after {mr['refinements']} "
               f"refinements, {len(mr['degrees'])} intervals of degrees {min(mr['degrees'])}-{max(mr['degrees'])}; "
               f"estimated error {est}; {mr['total_time_s']:.2f} s in all")
+        if not mr["met"]:       # why: the estimate above the tolerance, or not trusted at a switch (intervals named)
+            print(f"  {mr['message']}")
     if "reintegration" in summary:
         print(f"  re-integration of the optimal inputs: max state deviation {summary['reintegration']['max_state_deviation']:.2e}")
     if args.out:
