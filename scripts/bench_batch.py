@@ -13,7 +13,8 @@ runs (each run's own, from ``wait4``), the driver (scheduler, nannies, client, t
 worker processes and their fork servers. The overhead is everything but the runs. At the end,
 medians and the speed-up median(1 worker) / median(2 workers) of the whole batch and of its run
 phase, and each run's median CPU time with 1 and with 2 workers (if it grows with 2 workers,
-the two runs slow each other down in the hardware: caches, memory, the hypervisor). Wall times
+the two runs slow each other down in the hardware: caches, memory, the hypervisor; "steal" is
+the CPU time the hypervisor gave to other machines, /proc/stat). Wall times
 are only meaningful on an otherwise idle machine; CPU times much less so.
 """
 from __future__ import annotations
@@ -77,13 +78,13 @@ def _cluster(workers: int, quiet: bool = True):
 
 def _batch(sweeps: list[dict], workers: int, warm: bool) -> dict:
     """One whole batch on its own embedded cluster: wall per phase, CPU per process."""
-    w0, c0 = time.perf_counter(), time.process_time()
+    w0, c0, s0 = time.perf_counter(), time.process_time(), _steal()
     cluster, client, procs = _cluster(workers)
     w1, c1 = time.perf_counter(), time.process_time()
     k1 = sum(_cpu(p) for p in procs)
     with tempfile.TemporaryDirectory(prefix="bench_batch_") as tmp:
         result = run_batch(sweeps, Path(tmp) / "out", client=client, progress=False, warm=warm)
-    w2, c2 = time.perf_counter(), time.process_time()
+    w2, c2, s2 = time.perf_counter(), time.process_time(), _steal()
     k2 = sum(_cpu(p) for p in procs)
     servers = sum(_cpu(s) for p in procs for s in p.children())   # fork servers (started within the batch)
     client.close()
@@ -95,7 +96,12 @@ def _batch(sweeps: list[dict], workers: int, warm: bool) -> dict:
     runs = [r["cpu_time"] for r in result.rows]
     return {"whole": w3 - w0, "start": w1 - w0, "phase": w2 - w1, "close": w3 - w2, "driver_start": c1 - c0,
             "driver": c2 - c1, "workers": k2 - k1, "servers": servers, "runs_cpu": sum(runs), "run_cpu": runs,
-            "runs_wall": sum(r["wall_time"] for r in result.rows)}
+            "runs_wall": sum(r["wall_time"] for r in result.rows), "steal": s2 - s0}
+
+
+def _steal() -> float:
+    """CPU time the hypervisor gave to other guests while this one wanted it [s, all CPUs]."""
+    return getattr(psutil.cpu_times(), "steal", 0.0)
 
 
 def speedup(args) -> None:
@@ -118,7 +124,7 @@ def speedup(args) -> None:
                       f"{b['runs_wall']:.2f} s. CPU: runs {b['runs_cpu']:.2f} s ({b['runs_cpu'] / args.runs:.3f} per run), "
                       f"driver {b['driver']:.2f} (+{b['driver_start']:.2f} at start), workers {b['workers']:.2f}, "
                       f"fork servers {b['servers']:.2f}: overhead {over:.2f} s = {100 * over / b['runs_cpu']:.1f} % "
-                      f"of the runs' CPU", flush=True)
+                      f"of the runs' CPU; steal {b['steal']:.2f} s", flush=True)
     print(f"medians (load average {os.getloadavg()[0]:.2f} at the end):")
     for warm in modes:
         m = {w: {k: statistics.median(b[k] for b in got[(warm, w)]) for k in ("whole", "phase")} for w in (1, 2)}
@@ -173,26 +179,31 @@ def fixed_cost(args) -> None:
 
 
 def costs(args) -> None:
-    """Each kind of run, ``args.costs`` times, as a batch on one worker: CPU time and peak memory per run."""
-    print(f"bench_batch --costs: each kind {args.costs} times in a batch on 1 worker, warm and fresh; medians "
-          f"(load average {os.getloadavg()[0]:.2f} at start)")
-    print("\n| run | CPU time, warm | CPU time, fresh | wall (this load) | peak memory |\n|---|---:|---:|---:|---:|")
-    for name, argv in KINDS.items():
-        rows = {True: [], False: []}
-        for rep in range(args.costs):
-            for warm in (True, False):
-                with tempfile.TemporaryDirectory(prefix="bench_batch_") as tmp:
-                    r = run_batch([{"args": [*argv, "--no-plots", "--out", "{out}"]}], Path(tmp) / "out", workers=1,
-                                  progress=False, warm=warm)
-                if not r.ok:
-                    sys.exit(f"bench_batch: {name} failed: {r.rows[0]['message']}")
-                rows[warm] += r.rows
-        med = {w: {k: statistics.median(x[k] for x in rows[w]) for k in ("cpu_time", "wall_time", "max_rss_mb")}
-               for w in rows}
-        print(f"| `{name}` | {med[True]['cpu_time']:.2f} s | {med[False]['cpu_time']:.2f} s | "
-              f"{med[True]['wall_time']:.1f} s | {med[False]['max_rss_mb']:.0f} MB |", flush=True)
-    print(f"\n(load average {os.getloadavg()[0]:.2f} at the end; peak memory of the fresh runs: a forked run also "
-          "counts the pages it shares with its server)")
+    """Every kind of run once per batch on one worker, ``args.costs`` batches per launch: CPU and peak memory."""
+    print(f"bench_batch --costs: the {len(KINDS)} kinds in one batch on 1 worker, {args.costs} batches warm and "
+          f"{args.costs} fresh, alternating; medians (load average {os.getloadavg()[0]:.2f} at start)", flush=True)
+    sweeps = [{"args": [*argv, "--no-plots", "--out", "{out}"]} for argv in KINDS.values()]
+    got: dict = {(name, warm): [] for name in KINDS for warm in (True, False)}
+    for rep in range(args.costs):
+        for warm in (True, False):
+            with tempfile.TemporaryDirectory(prefix="bench_batch_") as tmp:
+                r = run_batch(sweeps, Path(tmp) / "out", workers=1, progress=False, warm=warm)
+            for name, argv, row in zip(KINDS, KINDS.values(), r.rows):
+                assert row["args"][:len(argv)] == argv
+                if row["status"] != "succeeded":
+                    sys.exit(f"bench_batch: {name} failed: {row['message']}")
+                got[(name, warm)].append(row)
+
+    def med(name, warm, key):
+        return statistics.median(row[key] for row in got[(name, warm)])
+
+    print("\n| run | CPU time, forked (fresh) | wall at this load | peak memory, fresh (forked) |\n|---|---:|---:|---:|")
+    for name in KINDS:
+        print(f"| `{name}` | {med(name, True, 'cpu_time'):.2f} s ({med(name, False, 'cpu_time'):.2f} s) | "
+              f"{med(name, True, 'wall_time'):.1f} s | {med(name, False, 'max_rss_mb'):.0f} MB "
+              f"({med(name, True, 'max_rss_mb'):.0f} MB) |")
+    print(f"\n(load average {os.getloadavg()[0]:.2f} at the end; a forked run's peak memory also counts the pages "
+          "it shares with its fork server)")
 
 
 def main(argv: list[str] | None = None) -> int:

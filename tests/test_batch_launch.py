@@ -106,8 +106,13 @@ def _gone(pid: int, timeout: float = 10.0) -> bool:
     return False
 
 
-def test_a_crashed_run_leaves_the_warm_server_usable(folder):
+def test_a_crashed_run_leaves_the_warm_server_usable_and_a_dead_server_is_replaced(folder):
     crash = _run(folder, "import os\nos.abort()\n", warm=True)
     assert crash.code == -signal.SIGABRT and crash.launch == "warm"
-    again = _run(folder, PROBE, warm=True)
-    assert again.code == 2 and again.launch == "warm" and launch.warm_status() == "warm"
+    again = _run(folder, "raise SystemExit(7)\n", warm=True)
+    assert again.code == 7 and again.launch == "warm" and launch.warm_status() == "warm"   # its exit status
+    [server] = launch._IDLE
+    server.proc.kill()   # as if killed while idle
+    server.proc.wait()
+    after = _run(folder, "raise SystemExit(7)\n", warm=True)
+    assert after.code == 7 and after.launch == "warm" and launch._IDLE[0] is not server

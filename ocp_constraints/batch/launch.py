@@ -48,7 +48,11 @@ class ServerLost(RuntimeError):
     """A fork server stopped answering."""
 
 
-class Refused(RuntimeError):
+class NotStarted(ServerLost):
+    """A fork server was gone before it forked the run: nothing was started."""
+
+
+class Refused(NotStarted):
     """A fork server would not fork (it has more than one thread): nothing was started."""
 
 
@@ -68,9 +72,10 @@ def run_command(args: list[str], cwd: str, stdout: str, stderr: str, cancel_file
         return _fresh(args, cwd, stdout, stderr, cancel_file)
     try:
         outcome = server.run(args, cwd, stdout, stderr, cancel_file)
-    except Refused as exc:
+    except NotStarted as exc:   # nothing ran: this run in a fresh interpreter instead
         server.close()
-        _COLD.append(str(exc))
+        if isinstance(exc, Refused):
+            _COLD.append(str(exc))
         return _fresh(args, cwd, stdout, stderr, cancel_file)
     except BaseException:
         server.close()
@@ -94,8 +99,11 @@ def _acquire() -> "ForkServer | None":
     if os.name != "posix" or not hasattr(os, "fork") or _COLD:
         return None
     with _LOCK:
-        if _IDLE:
-            return _IDLE.pop()
+        while _IDLE:
+            server = _IDLE.pop()
+            if server.proc.poll() is None:
+                return server
+            server.close()   # (died while idle, e.g. killed with the thread that had started it)
     try:
         return ForkServer()
     except (OSError, ServerLost, ValueError) as exc:
@@ -132,8 +140,11 @@ class ForkServer:
         self.preload_cpu = hello.get("preload_cpu")
 
     def run(self, args, cwd, stdout, stderr, cancel_file) -> Outcome:
-        self._send({"args": list(args), "cwd": str(cwd), "stdout": str(stdout), "stderr": str(stderr)})
-        started = self._message(START_TIMEOUT)   # (after the server's imports for a first run that draws)
+        try:
+            self._send({"args": list(args), "cwd": str(cwd), "stdout": str(stdout), "stderr": str(stderr)})
+            started = self._message(START_TIMEOUT)   # (after the server's imports for a first run that draws)
+        except ServerLost as exc:
+            raise NotStarted(str(exc)) from exc
         if "refused" in started:
             raise Refused(started["refused"])
         pid = started["pid"]
