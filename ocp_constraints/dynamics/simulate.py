@@ -60,6 +60,9 @@ class SimulationOptions:
     #: "auto" (compiled model functions where compiling pays, or already cached), "always" or "never"
     #: (CasADi's virtual machine); see :mod:`.compiled`.
     compiled: str = "auto"
+    #: "maximal" (every body's coordinates, projection) or "joint": the ODE in joint coordinates, for
+    #: models whose constraints are all library joints and that have no inputs (:mod:`.joint_simulation`).
+    coordinates: str = "maximal"
 
     @property
     def drift_limit(self) -> float:
@@ -77,6 +80,8 @@ class SimulationOptions:
                 raise ModelError(f"simulation option '{name}' must be a positive number, got {v!r}")
         if self.compiled not in ("auto", "always", "never"):
             raise ModelError(f"simulation option 'compiled' must be 'auto', 'always' or 'never', got {self.compiled!r}")
+        if self.coordinates not in ("maximal", "joint"):
+            raise ModelError(f"simulation option 'coordinates' must be 'maximal' or 'joint', got {self.coordinates!r}")
         if self.method not in ("adams", "bdf"):
             raise ModelError(f"simulation option 'method' must be 'adams' or 'bdf', got {self.method!r}")
 
@@ -145,7 +150,7 @@ def simulate(
     # Samples every dt from t0, and t_final itself (never past it); counted before any is made.
     n_full = int(np.floor(span / opts.dt + 1e-9))
     short_last = span - n_full * opts.dt > 1e-9 * opts.dt
-    integrators = integrators_for(eqs, opts)
+    integrators = integrators_for(eqs, opts) if opts.coordinates == "maximal" else None
     estimate = check_resources(eqs, n_full + 1 + short_last, span, opts.dt, opts.max_memory,
                                lambda: _seconds_per_sample(eqs, q0, u0, t0, n_full, inputs, opts))
     times = t0 + opts.dt * np.arange(n_full + 1)
@@ -156,6 +161,10 @@ def simulate(
     last_step = float(times[-1] - times[-2])
     if on_start is not None:
         on_start({**estimate, "t0": t0, "t_final": float(t_final), "dt": opts.dt, "last_step": last_step})
+    if opts.coordinates == "joint":
+        from .joint_simulation import simulate_joint
+
+        return simulate_joint(eqs, q0, u0, times, opts)
     # With inputs, CVODES restarts at every sample (the inputs are linear per sample).
     longest = 1 if n_in else max(1, int(round(opts.projection_interval / opts.dt)))
     per_segment = longest
