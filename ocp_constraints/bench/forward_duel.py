@@ -37,7 +37,7 @@ _OURS_SNIPPET = """
 from ocp_constraints import SystemEquations, build_scene, consistent_state, simulate
 from ocp_constraints.dynamics.simulate import SimulationOptions
 s = build_scene({scene!r}); e = SystemEquations(s.model); q0, u0 = consistent_state(e, s.coordinates, s.rates)
-simulate(e, q0, u0, {t_final!r}, SimulationOptions(rtol={tol!r}, atol={tol!r}, compiled={compiled!r}))
+simulate(e, q0, u0, {t_final!r}, SimulationOptions(rtol={tol!r}, atol={tol!r}, {settings}))
 """
 _PEER_SNIPPET = """import math, time
 import numpy as np
@@ -69,6 +69,12 @@ def run_child(argv: list[str], env: dict[str, str] | None = None) -> tuple[float
     return wall, (after.ru_utime - before.ru_utime) + (after.ru_stime - before.ru_stime)
 
 
+def _settings(compiled: str) -> dict:
+    """SimulationOptions of a variant: ``"never"``/``"always"`` (maximal coordinates, compiled or not) or
+    ``"joint"`` (joint coordinates, :mod:`~ocp_constraints.dynamics.joint_simulation`)."""
+    return {"compiled": "never", "coordinates": "joint"} if compiled == "joint" else {"compiled": compiled}
+
+
 def _ours_once(scene_name: str, t_final: float, tol: float, compiled: str):
     from ..dynamics.simulate import SimulationOptions, simulate
     from ..mechanics.equations import SystemEquations
@@ -79,7 +85,7 @@ def _ours_once(scene_name: str, t_final: float, tol: float, compiled: str):
     scene = build_scene(scene_name)
     eqs = SystemEquations(scene.model)
     q0, u0 = consistent_state(eqs, scene.coordinates, scene.rates)
-    traj = simulate(eqs, q0, u0, t_final, SimulationOptions(rtol=tol, atol=tol, compiled=compiled))
+    traj = simulate(eqs, q0, u0, t_final, SimulationOptions(rtol=tol, atol=tol, **_settings(compiled)))
     return time.perf_counter() - wall, time.process_time() - cpu, traj
 
 
@@ -90,15 +96,25 @@ def _peer(scene: str):
 
 
 def forward_duel(scene: str = "pendulum", t_final: float = 10.0, runs: int = 3, ours=OURS, theirs=THEIRS,
-                 compiled=("never", "always"), whole_process: bool = True, log=print) -> dict:
+                 compiled=("never", "always", "joint"), whole_process: bool = True, log=print) -> dict:
     """Our forward simulation against the scene's peer; see the module docstring. Returns the
-    medians per setting and, per peer tolerance, our cheapest setting at equal or better error."""
+    medians per setting and, per peer tolerance, our cheapest setting at equal or better error.
+    ``compiled``: our variants, ``"never"``/``"always"`` (maximal coordinates) and ``"joint"`` (joint
+    coordinates, left out for a scene they do not cover, e.g. the sliding disk's contact)."""
     import inspect
+
+    from ..errors import ModelError
 
     from .references import TIGHTEST_RTOL, integrator_reference, pendulum_reference
 
     fn = _peer(scene)
     params = dict(load_scene_module(scene).DEFAULTS)
+    if "joint" in compiled:
+        try:
+            _ours_once(scene, 0.05, 1e-8, "joint")
+        except ModelError as exc:
+            log(f"  {scene}: no joint-coordinate variant ({exc})")
+            compiled = tuple(c for c in compiled if c != "joint")
     variants = [(tol, c) for tol in ours for c in compiled]
     env = child_environment()
     _ours_once(scene, 0.05, 1e-8, "always")      # compiled libraries built once (not timed: "after the first load")
@@ -120,7 +136,8 @@ def forward_duel(scene: str = "pendulum", t_final: float = 10.0, runs: int = 3, 
     peer_code = {tol: _PEER_SNIPPET.format(source=inspect.getsource(fn), fn=fn.__name__, t_final=t_final, tol=tol, p=params)
                  for tol in theirs}
     if whole_process:   # warm-up (bytecode written, files in the OS cache); not timed
-        run_child([sys.executable, "-c", _OURS_SNIPPET.format(scene=scene, t_final=0.1, tol=1e-6, compiled="never")], env)
+        run_child([sys.executable, "-c", _OURS_SNIPPET.format(scene=scene, t_final=0.1, tol=1e-6,
+                                                              settings="compiled='never'")], env)
         run_child([sys.executable, "-c", _PEER_SNIPPET.format(source=inspect.getsource(fn), fn=fn.__name__, t_final=0.1,
                                                               tol=theirs[0], p=params)], env)
     env_note = f"load average {os.getloadavg()[0]:.1f} at the start on {os.cpu_count()} cores"
@@ -142,7 +159,8 @@ def forward_duel(scene: str = "pendulum", t_final: float = 10.0, runs: int = 3, 
                 cols = traj.sample_columns()
                 errors[("ours", tol, c)] = error_of(cols, cols)
             if whole_process:
-                code = _OURS_SNIPPET.format(scene=scene, t_final=t_final, tol=tol, compiled=c)
+                code = _OURS_SNIPPET.format(scene=scene, t_final=t_final, tol=tol,
+                                            settings=", ".join(f"{k}={v!r}" for k, v in _settings(c).items()))
                 timed(("ours", tol, c, "whole"), *run_child([sys.executable, "-c", code], env))
         log(f"  {scene}: round {rep + 1}/{runs} done (load average {os.getloadavg()[0]:.1f})")
     med = {k: statistics.median(v) for k, v in times.items()}
@@ -179,9 +197,10 @@ def duel_markdown(result: dict) -> str:
     kinds = result["kinds"]
     head = (f"{result['scene']}, t = 0 ... {result['t_final']:g} s, medians of {result['runs']} interleaved runs "
             f"({result['load']}). Error: max deviation from the reference ({result['reference']}) "
-            f"over {', '.join(result['error_on'])} (multipliers relative to the largest).\n\n"
+            f"over {', '.join(result['error_on'])} (multipliers relative to the largest). Our settings: never / always "
+            "(maximal coordinates, CasADi's virtual machine / compiled C), joint (joint coordinates).\n\n"
             "| peer rtol | peer error | " + " | ".join(f"peer {k} s (wall / CPU)" for k in kinds) + " | "
-            + " | ".join(f"our cheapest {k} (rtol, compiled: error)" for k in kinds) + " | "
+            + " | ".join(f"our cheapest {k} (rtol, setting: error)" for k in kinds) + " | "
             + " | ".join(f"ratio {k} (wall / CPU)" for k in kinds) + " |\n|" + "---|" * (2 + 3 * len(kinds)) + "\n")
     lines = []
     for r in result["rows"]:
@@ -199,7 +218,7 @@ def duel_markdown(result: dict) -> str:
         return "\n".join(f"| {label} | {o['rtol']:g} | {o.get('compiled', '')} | {o['error']:.1e} | "
                          + " | ".join(f"{o[f'{k}_wall']:.4f} / {o[f'{k}_cpu']:.4f}" for k in kinds) + " |" for o in items)
 
-    every = ("\n\n| who | rtol | compiled | error | " + " | ".join(f"{k} s (wall / CPU)" for k in kinds) + " |\n|"
+    every = ("\n\n| who | rtol | setting | error | " + " | ".join(f"{k} s (wall / CPU)" for k in kinds) + " |\n|"
              + "---|" * (4 + len(kinds)) + "\n" + setting_rows(result["peer"], "peer") + "\n"
              + setting_rows(result["ours"], "ours"))
     return head + "\n".join(lines) + every + "\n"
