@@ -33,11 +33,13 @@ from ocp_constraints.ocp.transcription import Transcription
 E = [ca.DM.eye(3)[:, k] for k in range(3)]
 
 
-def textbook(coordinates: str = "maximal") -> oc.OptimalControlProblem:
-    """The issue's textbook problem written from scratch: cart on a rail, pole on a hinge, by hand."""
+def textbook(coordinates: str = "maximal", radius: float = 0.0) -> oc.OptimalControlProblem:
+    """The issue's textbook problem written from scratch: cart on a rail, pole on a hinge, by hand.
+    ``radius``: the pole a solid cylinder of that radius (regular inertia) instead of a thin rod."""
     model = oc.Model("cart_pole", gravity=(0.0, -9.81, 0.0))
     cart = model.add_body("cart", 1.0, np.diag([0.01, 0.01, 0.01]), rotation="321")
-    pole = model.add_body("pole", 0.5, 0.5 / 12 * np.diag([1.0, 0.0, 1.0]), rotation="321")
+    pole = model.add_body("pole", 0.5, 0.5 / 12 * np.diag([1.0, 0.0, 1.0]) + 0.5 * radius**2 * np.diag([0.25, 0.5, 0.25]),
+                          rotation="321")
     model.add_constraint("rail.v2", ca.dot(E[1], cart.com.v), joint="rail", position=cart.com.position[1])
     model.add_constraint("rail.v3", ca.dot(E[2], cart.com.v), joint="rail", position=cart.com.position[2])
     for k in range(3):
@@ -59,21 +61,23 @@ def textbook(coordinates: str = "maximal") -> oc.OptimalControlProblem:
     return ocp
 
 
-def textbook_minimal() -> minimal.Minimal:
+def textbook_minimal(radius: float = 0.0) -> minimal.Minimal:
     """The same in (x, psi) by Lagrange's equations: pole center at (x + sin psi / 2, -cos psi / 2)."""
     q, qd, f = ca.SX.sym("q", 2), ca.SX.sym("qd", 2), ca.SX.sym("f")
     c = ca.vertcat(q[0] + 0.5 * ca.sin(q[1]), -0.5 * ca.cos(q[1]))
     v = ca.jacobian(c, q) @ qd
-    T = 0.5 * 1.0 * qd[0] ** 2 + 0.5 * 0.5 * ca.dot(v, v) + 0.5 * (0.5 / 12) * qd[1] ** 2
+    T = 0.5 * 1.0 * qd[0] ** 2 + 0.5 * 0.5 * ca.dot(v, v) + 0.5 * (0.5 / 12 + 0.5 * radius**2 / 4) * qd[1] ** 2
     dyn = minimal.lagrange(q, qd, T, 0.5 * 9.81 * c[1], f * qd[0])
     return minimal._minimal("textbook", dyn, f, f**2, 2.0, [0.0] * 4, [0.0, math.pi, 0.0, 0.0], [(-40.0, 40.0)])
 
 
-def pendulum(coordinates: str = "maximal") -> oc.OptimalControlProblem:
-    """The swing-up of problems/pendulum.py (planar rod, motor about E3) with the hinge written by hand."""
+def pendulum(coordinates: str = "maximal", radius: float = 0.0) -> oc.OptimalControlProblem:
+    """The swing-up of problems/pendulum.py (planar rod, motor about E3) with the hinge written by hand.
+    ``radius``: the rod a solid cylinder of that radius (regular inertia) instead of a thin rod."""
     model = oc.Model("pendulum", gravity=(0.0, -9.81, 0.0))
     d = np.array([0.0, -1.0, 0.0])
-    rod = model.add_body("rod", 1.0, 1.0 / 12 * (np.eye(3) - np.outer(d, d)), rotation="321")
+    J = 1.0 / 12 * (np.eye(3) - np.outer(d, d)) + radius**2 * (np.eye(3) / 4 + np.outer(d, d) / 4)
+    rod = model.add_body("rod", 1.0, J, rotation="321")
     A = rod.point("A", -0.5 * d)
     for k in range(3):
         model.add_constraint(f"hinge.v{k + 1}", ca.dot(E[k], A.v), joint="hinge", position=A.position[k])
@@ -89,16 +93,37 @@ def pendulum(coordinates: str = "maximal") -> oc.OptimalControlProblem:
     return ocp
 
 
-def pendulum_minimal() -> minimal.Minimal:
+def pendulum_minimal(radius: float = 0.0) -> minimal.Minimal:
     q, qd, tau = ca.SX.sym("q", 1), ca.SX.sym("qd", 1), ca.SX.sym("tau")
-    dyn = minimal.lagrange(q, qd, 0.5 * (1.0 / 3) * qd[0] ** 2, -9.81 * 0.5 * ca.cos(q[0]), tau * qd[0])
+    dyn = minimal.lagrange(q, qd, 0.5 * (1.0 / 3 + radius**2 / 4) * qd[0] ** 2, -9.81 * 0.5 * ca.cos(q[0]), tau * qd[0])
     return minimal._minimal("pendulum", dyn, tau, tau**2, 2.0, [0.0, 0.0], [math.pi, 0.0], [(-20.0, 20.0)],
                             guesses={0: lambda t: math.pi * t / 2 - ca.sin(math.pi * t / 2)})
 
 
+THICK = 0.05     # m: the regular-inertia variants' radius
+
+
+def scene_task(scene: str, task: str):
+    """A built-in scene's task (problems/*.py), its problem made with the given coordinates."""
+    from ocp_constraints.scenes.registry import load_scene_module, resolve_parameters
+
+    def build(coordinates: str) -> oc.OptimalControlProblem:
+        module = load_scene_module(scene)
+        problem = module.TASKS[task](resolve_parameters(scene, module.DEFAULTS, {}))
+        problem.coordinates = coordinates
+        return problem
+
+    return build
+
+
 PROBLEMS = {"textbook": (textbook, textbook_minimal), "pendulum": (pendulum, pendulum_minimal),
+            "textbook_thick": (lambda c: textbook(c, THICK), lambda: textbook_minimal(THICK)),
+            "pendulum_thick": (lambda c: pendulum(c, THICK), lambda: pendulum_minimal(THICK)),
             "four_bar": (planar.four_bar, minimal.four_bar), "rolling_disk": (spatial.rolling_disk, minimal3d.rolling_disk),
-            "quadrotor_load": (spatial.quadrotor_load, minimal3d.quadrotor_load)}
+            "quadrotor_load": (spatial.quadrotor_load, minimal3d.quadrotor_load),
+            "walker": (spatial.walker, minimal3d.walker),
+            "ball_socket_reach": (scene_task("ball_socket", "reach"), None),
+            "rolling_disk_drive": (scene_task("rolling_disk", "drive"), None)}
 FORMS = {"maximal": lambda pr, m: Transcription(pr, m),
          "condensed": lambda pr, m: CondensedTranscription(pr, m, "mesh"),
          "condensed-points": lambda pr, m: CondensedTranscription(pr, m, "points")}
@@ -158,7 +183,7 @@ def main() -> None:
                 dx = float(np.abs(sol.X - reference.X).max())
                 dl = float(np.abs(sol.lam - reference.lam).max() / max(np.abs(reference.lam).max(), 1e-300))
             print(_row(name, form, rows, f" {dx:.1e} | {dl:.1e} |"), flush=True)
-        if not args.no_rockit:
+        if not args.no_rockit and mk is not None:
             print(_row(name, "rockit (minimal)", [rockit(mk, args.intervals) for _ in range(args.runs)], " | |"), flush=True)
 
 

@@ -54,15 +54,17 @@ def driven_constraints(eqs) -> list[str]:
     return [eqs.constraint_names[k] for k in range(eqs.nc) if ca.depends_on(pi[k], eqs.inputs)]
 
 
-def pointwise_kkt(eqs, *, condition_limit: float = 1e12) -> PointwiseKKT:
-    """The KKT solution of ``eqs`` (a :class:`SystemEquations`) as SX expressions.
+def pointwise_kkt(eqs) -> PointwiseKKT:
+    """The KKT solution of ``eqs`` (a :class:`SystemEquations`) as SX expressions, one block per body.
 
-    A body whose inertia tensor is singular (a thin rod) is made regular by its own constraints:
-    with ``G_1`` the rows of ``G`` that act on that body alone, ``G_1 u' = -gamma_1`` turns its
-    balance into ``(M_b + G_1^T G_1) u' = f + G^T lambda - G_1^T gamma_1``, still one block per body.
-    Where that is not enough (a singular body held only through other bodies) the whole KKT matrix is
-    solved. Raises :class:`ModelError` naming the constraints whose velocity form depends on an input:
-    their acceleration level needs the input's rate, which the condensed transcription does not have.
+    A body whose inertia tensor ``J`` is singular (a thin rod: nothing about its axis ``d``) gets
+    ``J~ = J + c d d^T`` and an unknown ``beta = n . omega'`` per null direction ``n = Q d``:
+    ``(M + c N N^T) u' = f + G^T lambda + c N beta`` is the balance again, and
+    ``N^T u' = beta`` closes it. ``M~ = M + c N N^T`` stays block-diagonal with the analytic inverse
+    ``diag(I / m, Q J~^-1 Q^T)``, so only ``[G; N^T] M~^-1 [G^T, c N] - diag(0, I)`` (one row per
+    constraint and null direction) is solved symbolically, never the whole KKT matrix.
+    Raises :class:`ModelError` naming the constraints whose velocity form depends on an input: their
+    acceleration level needs the input's rate, which the condensed transcription does not have.
     """
     driven = driven_constraints(eqs)
     if driven:
@@ -72,53 +74,40 @@ def pointwise_kkt(eqs, *, condition_limit: float = 1e12) -> PointwiseKKT:
     f, G, nu, nc = eqs.forces, eqs.G, eqs.nu, eqs.nc
     # No input enters a constraint (checked above): the input rates' symbols are absent from gamma.
     gamma = eqs.gamma if nc else ca.SX(0, 1)
-    blocks = _regular_blocks(eqs, condition_limit)
-    if blocks is None:
-        K = ca.blockcat(eqs.mass_matrix, -G.T, G, ca.SX(nc, nc))
-        # One symbolic factorization for both right-hand sides.
-        Z = ca.solve(K, ca.horzcat(ca.vertcat(f, -gamma), ca.vertcat(ca.SX(nu, nc), ca.SX.eye(nc))))
-        return PointwiseKKT(Z[:nu, 0], Z[nu:, 0], Z[:nu, 1:], Z[nu:, 1:], False)
-    Minv, rows = blocks
-    if not nc:
-        return PointwiseKKT(Minv @ f, ca.SX(0, 1), ca.SX(nu, 0), ca.SX(0, 0), True)
-    E1 = ca.SX(nc, len(rows))
-    for j, k in enumerate(rows):
-        E1[k, j] = 1
-    G1 = G[rows, :] if rows else ca.SX(0, nu)
-    rhs = f - G1.T @ gamma[rows] if rows else f
-    MinvGt = ca.sparsify(Minv @ G.T)
-    lam = -ca.solve(G @ MinvGt, G @ (Minv @ rhs) + gamma)
-    a = Minv @ rhs + MinvGt @ lam
-    # lambda + mu moves u' by M~^-1 G^T mu; the G_1 rows' share taken back so that M u' = f + G^T lambda.
-    dlam = ca.SX.eye(nc) - E1 @ (G1 @ MinvGt) if rows else ca.SX.eye(nc)
-    return PointwiseKKT(a, lam, MinvGt, dlam, True)
+    Minv, N, c = _regular_blocks(eqs)
+    ns = N.size2()
+    if not ns:
+        if not nc:
+            return PointwiseKKT(Minv @ f, ca.SX(0, 1), ca.SX(nu, 0), ca.SX(0, 0), True)
+        MinvGt = ca.sparsify(Minv @ G.T)
+        lam = -ca.solve(G @ MinvGt, G @ (Minv @ f) + gamma)
+        return PointwiseKKT(Minv @ f + MinvGt @ lam, lam, MinvGt, ca.SX.eye(nc), True)
+    B = ca.horzcat(G.T, N)                 # N's columns carry the factor c already
+    R = ca.vertcat(G, ca.diag(ca.DM(1.0 / c)) @ N.T)     # rows n^T u' = beta
+    S = R @ ca.sparsify(Minv @ B) - ca.diagcat(ca.SX(nc, nc), ca.SX.eye(ns))
+    rhs = -(R @ (Minv @ f) + ca.vertcat(gamma, ca.SX(ns, 1)))
+    # One symbolic factorization for the solution and for the slack directions [G; N^T] u' = (s, 0).
+    Y = ca.solve(S, ca.horzcat(rhs, ca.vertcat(ca.SX.eye(nc), ca.SX(ns, nc))))
+    a = Minv @ (f + B @ Y[:, 0])
+    return PointwiseKKT(a, Y[:nc, 0], Minv @ B @ Y[:, 1:], Y[:nc, 1:], False)
 
 
-def _regular_blocks(eqs, condition_limit: float):
-    """``(M~^-1, rows)``: the block-diagonal inverse of ``M~ = M + G_1^T G_1`` and the rows ``G_1``
-    (single-body constraints on bodies with a singular inertia tensor), or None where some block stays singular."""
-    G, offset = eqs.G, 0
-    blocks, rows = [], []
+def _regular_blocks(eqs, rtol: float = 1e-12) -> tuple[ca.SX, ca.SX, np.ndarray]:
+    """``(M~^-1, c N, c)``: the block-diagonal inverse of ``M~ = M + c N N^T``, the null directions
+    ``n = Q d`` of the singular inertia tensors (columns, scaled by ``c``, in the rows of their ``omega``)
+    and each column's ``c``."""
+    blocks, columns, scales, offset = [], [], [], 0
     for b in eqs.bodies:
-        cols = list(range(offset, offset + 6))
+        J = np.asarray(b.inertia, float)
+        w, V = np.linalg.eigh(J)
+        c = max(w.max(), b.mass * 1e-6)       # any c > 0 is exact; the body's own scale keeps M~ well conditioned
+        null = V[:, w <= rtol * max(w.max(), 1e-300)]
+        Jt = J + c * null @ null.T
+        blocks += [ca.SX.eye(3) / b.mass, b.Q @ ca.DM(np.linalg.inv(Jt)) @ b.Q.T]
+        for d in null.T:
+            col = ca.SX(eqs.nu, 1)
+            col[offset + 3 : offset + 6] = c * (b.Q @ ca.DM(d))
+            columns.append(col)
+            scales.append(c)
         offset += 6
-        if np.linalg.cond(b.inertia) < condition_limit:
-            blocks += [ca.SX.eye(3) / b.mass, b.Q @ ca.DM(np.linalg.inv(b.inertia)) @ b.Q.T]
-            continue
-        own = [k for k in range(eqs.nc) if _touches_only(G, k, cols)]
-        Mb = ca.diagcat(b.mass * ca.SX.eye(3), b.inertia_fixed())
-        if own:
-            Gb = G[own, cols]
-            Mb = Mb + Gb.T @ Gb
-        Mb_value = ca.Function("Mb", [eqs.q], [Mb])(np.random.default_rng(0).uniform(-0.7, 0.7, eqs.nq))
-        if np.linalg.cond(np.asarray(Mb_value)) > condition_limit:
-            return None
-        blocks.append(ca.solve(Mb, ca.SX.eye(6)))
-        rows += own
-    return ca.diagcat(*blocks), sorted(rows)
-
-
-def _touches_only(G: ca.SX, k: int, cols: list[int]) -> bool:
-    """Row ``k`` of ``G`` is structurally nonzero only in ``cols`` (and somewhere there)."""
-    nz = [c for c in range(G.size2()) if G[k, c].nnz() and not G[k, c].is_zero()]
-    return bool(nz) and set(nz) <= set(cols)
+    return ca.diagcat(*blocks), ca.horzcat(*columns) if columns else ca.SX(eqs.nu, 0), np.array(scales)
