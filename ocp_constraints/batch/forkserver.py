@@ -35,7 +35,7 @@ import traceback
 PRELOAD = ("numpy", "casadi", "ocp_constraints", "ocp_constraints.cli.main", "ocp_constraints.scenes.registry",
            "ocp_constraints.scenes.tasks", "ocp_constraints.dynamics.simulate", "ocp_constraints.ocp.schemes")
 # 0.6 s of CPU that a batch of --no-plots runs would pay for nothing (0.25 s without them)
-PLOTTING = ("matplotlib", "matplotlib.pyplot", "ocp_constraints.output.plots")
+PLOTTING = ("matplotlib", "matplotlib.pyplot")
 
 
 def thread_count() -> int:
@@ -67,7 +67,7 @@ def serve() -> None:
         if not line.strip():   # stdin closed: the worker is gone or done
             return
         request = json.loads(line)
-        if "--no-plots" not in request["args"] and PLOTTING[-1] not in sys.modules:
+        if "--no-plots" not in request["args"] and "matplotlib.pyplot" not in sys.modules:
             _preload(PLOTTING)
         if thread_count() != 1:   # (an import started a thread: forking now could deadlock the child)
             _reply(replies, {"refused": f"the fork server has {thread_count()} threads"})
