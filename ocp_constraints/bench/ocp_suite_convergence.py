@@ -1,11 +1,12 @@
 """The suite's accuracy step: ours and the minimal-coordinate reference on a chain of meshes.
 
-Why a chain, not one fine mesh: where an optimum rides a bound (the acrobot's elbow torque, the
-four-bar's pin force, the disk's friction cone), the bound's switching times fall anywhere inside
-a collocation interval and fixed-mesh collocation converges slowly and irregularly. At Radau 7
-the minimal acrobot's objective changes by 5.4e-4 from N = 40 to 80, then by 1.3e-6 and 1.2e-9;
-the four-bar's by 4e-5, 6e-6, 1e-7 (sign changing) and 1.1e-8. One reference mesh, or its
-comparison with half the intervals, does not say whether the reference has converged.
+Why a chain, not one fine mesh: where an optimum rides a bound (the four-bar's pin force), the
+bound's switching times fall anywhere inside a collocation interval, and where it has sharp peaks
+(the acrobot's elbow torque) short intervals are needed; fixed-mesh collocation then converges
+slowly and irregularly. At Radau 7 the minimal acrobot's objective changes by 5.4e-4 from N = 40
+to 80, then by 1.3e-6 and 1.2e-9; the four-bar's by 4e-5, 6e-6, 1e-7 (sign changing) and 1.1e-8.
+One reference mesh, or its comparison with half the intervals, does not say whether the
+reference has converged.
 
 On each mesh ``(N, degree)`` of the chain (``N`` doubling), in order:
 
