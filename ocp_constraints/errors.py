@@ -26,6 +26,14 @@ class InconsistentStateError(ModelError):
     """Initial coordinates or speeds violate the constraints."""
 
 
+class UnknownColumnError(ModelError, KeyError):
+    """A results table (e.g. ``sol.loads()``) has no column of that name; also a ``KeyError``, as a
+    dict lookup's miss is, but with the message naming the closest columns."""
+
+    def __str__(self) -> str:         # KeyError would print the message as a quoted repr
+        return str(self.args[0]) if self.args else ""
+
+
 class SceneError(OcpConstraintsError, ValueError):
     """A scene name, scene file or scene parameter is unusable."""
 

@@ -16,9 +16,11 @@ Evaluation is vectorised: the channel function of :class:`SystemEquations` is
 """
 from __future__ import annotations
 
+import difflib
+
 import numpy as np
 
-from ..errors import ModelError
+from ..errors import ModelError, UnknownColumnError
 from .bodies import Point
 from .equations import SystemEquations
 
@@ -55,6 +57,24 @@ def _samples(eqs: SystemEquations, t, q, u, lam) -> tuple[np.ndarray, ...]:
     return tuple(out)
 
 
+class LoadColumns(dict):
+    """The columns by name; a name that is not one raises :class:`UnknownColumnError` (a ``KeyError``)
+    naming the closest columns: a two-body joint's loads are ``<joint>@<body>.F_x``, not ``<joint>.F_x``,
+    and a bare ``KeyError: 'hinge.F_x'`` does not say so."""
+
+    def __missing__(self, name):
+        names = list(self)
+        joint = str(name).split("@")[0].split(".")[0]
+        quantity = str(name).rsplit(".", 1)[-1]
+        close = [n for n in names if n.startswith(f"{joint}@") and n.endswith(f".{quantity}")]
+        close += [n for n in difflib.get_close_matches(str(name), names, n=5, cutoff=0.7) if n not in close]
+        channels = sorted({n.rsplit(".", 1)[0] for n in names if not n.endswith(".lambda")})
+        hint = f"; did you mean {', '.join(repr(c) for c in close[:5])}?" if close else ""
+        raise UnknownColumnError(f"no load column named {name!r}{hint} Columns are '<constraint>.lambda' and, per "
+                                 f"joint load, '<load>.F_x' ... '.power' for the loads {channels} (a two-body "
+                                 f"joint once per body, '<joint>@<body>')")
+
+
 def load_columns(eqs: SystemEquations, t, q, u, lam) -> dict[str, np.ndarray]:
     """DESIGN.md's loads.csv columns at every sample (rows of ``q``, ``u``, ``lam``; ``t`` in s).
 
@@ -63,7 +83,7 @@ def load_columns(eqs: SystemEquations, t, q, u, lam) -> dict[str, np.ndarray]:
     CasADi evaluation over all samples.
     """
     t, q, u, lam = _samples(eqs, t, q, u, lam)
-    cols = {f"{name}.lambda": lam[:, k] for k, name in enumerate(eqs.constraint_names)}
+    cols = LoadColumns({f"{name}.lambda": lam[:, k] for k, name in enumerate(eqs.constraint_names)})
     channels = eqs.load_channels
     if not channels:
         return cols

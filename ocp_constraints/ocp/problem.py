@@ -121,7 +121,7 @@ class OptimalControlProblem:
     # -- objective -----------------------------------------------------------------------
     def minimize_integral(self, expression, weight: float = 1.0, label: str = "integral") -> None:
         """Add ``weight * int expression dt`` (expression of q, u, inputs, lambda, t)."""
-        self.integral_terms.append(IntegralTerm(label, ca.SX(expression), float(weight)))
+        self.integral_terms.append(IntegralTerm(label, ca.SX(expression), _finite(weight, f"weight of the objective term '{label}'")))
 
     def minimize_effort(self, inputs: list[str] | None = None, weight: float = 1.0) -> None:
         """``int sum tau_i^2 dt`` over the named inputs (default: all)."""
@@ -138,7 +138,7 @@ class OptimalControlProblem:
     def minimize_final_time(self, weight: float = 1.0) -> None:
         if self.t_final_bounds is None:
             raise ModelError("minimize_final_time needs a free final time (t_final_bounds)")
-        self.time_weight += float(weight)
+        self.time_weight += _finite(weight, "weight of the final time")
 
     def track(self, name: str, reference: Callable, weight: float = 1.0) -> None:
         """``weight * int (quantity - reference(t))^2 dt``; ``reference`` takes a CasADi time."""
@@ -154,11 +154,23 @@ class OptimalControlProblem:
 
     def subject_to(self, expression, lower: float = -np.inf, upper: float = np.inf, label: str = "path") -> None:
         """Path constraint ``lower <= expression <= upper`` at every point."""
-        self.path_constraints.append(PathConstraint(label, ca.SX(expression), float(lower), float(upper)))
+        lower, upper = float(lower), float(upper)
+        # IPOPT refuses these with a bare assertion on 'LBG[k]', which names no constraint.
+        if np.isnan(lower) or np.isnan(upper) or lower > upper or lower == np.inf or upper == -np.inf:
+            raise ModelError(f"path constraint '{label}': bounds must satisfy lower <= upper with lower < inf and "
+                             f"upper > -inf, got lower {lower}, upper {upper}; swap them if they are reversed")
+        self.path_constraints.append(PathConstraint(label, ca.SX(expression), lower, upper))
 
     def friction_cone(self, channel: str, mu: float, normal=(0.0, 0.0, 1.0)) -> None:
-        """``N = F . n >= 0`` and ``|F - N n|^2 <= mu^2 N^2`` for a contact's load ``F``."""
-        n = ca.DM(np.asarray(normal, dtype=float) / np.linalg.norm(normal))
+        """``N = F . n >= 0`` and ``|F - N n|^2 <= mu^2 N^2`` for a contact's load ``F`` (``mu`` >= 0, no unit)."""
+        if not (np.isfinite(mu) and mu >= 0):
+            raise ModelError(f"friction_cone('{channel}'): the friction coefficient mu must be a finite number >= 0, "
+                             f"got {mu!r}")
+        normal = np.asarray(normal, dtype=float).reshape(-1)
+        if normal.shape != (3,) or not np.all(np.isfinite(normal)) or not np.linalg.norm(normal) > 0:
+            raise ModelError(f"friction_cone('{channel}'): normal must be 3 finite numbers, not all zero (fixed "
+                             f"basis), got {normal.tolist()}")
+        n = ca.DM(normal / np.linalg.norm(normal))
         F = self.joint_force(channel)
         N = ca.dot(F, n)
         Ft = F - N * n
@@ -307,6 +319,15 @@ class OptimalControlProblem:
                 key = key[:4] + (self.structure_key(),)
                 cache[key] = transcribe_maximal(self, method)
         return cache[key]
+
+
+def _finite(value, what: str) -> float:
+    """``value`` as a float, or a :class:`ModelError` naming ``what`` (a NaN weight reaches IPOPT as
+    'Invalid_Number_Detected' after 0 iterations, which names nothing)."""
+    v = float(value)
+    if not np.isfinite(v):
+        raise ModelError(f"the {what} must be a finite number, got {value!r}")
+    return v
 
 
 def _model_contents(model: Model) -> tuple:
