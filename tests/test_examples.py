@@ -34,6 +34,7 @@ def _number(pattern: str, text: str) -> float:
 
 
 CHECKED = {"whirling_by_hand.py", "swing_up.py", "cart_pole_by_hand.py", "export_to_c.py",   # the tests below
+           "wheel_on_slope.py", "spherical_pendulum.py",
            "robot_arm_urdf.py"}                                   # tests/test_urdf.py (against Pinocchio)
 UNCHECKED = sorted(p.name for p in EXAMPLES.glob("*.py") if p.name not in CHECKED)
 
@@ -224,3 +225,61 @@ def test_export_example_round_trip_and_the_compiled_functions_against_hand_formu
     q = np.array([0.2, -0.1, R, 0.7, math.pi / 2, 1.3])
     (lam,) = call("rolling_disk_multipliers", q, np.zeros(6), np.zeros(6), sizes=[3])
     assert np.allclose(lam, [0.0, 0.0, m * g], rtol=0, atol=1e-12)
+
+
+# -- user problems written from scratch (issue 13), against minimal coordinates in plain CasADi ------------
+def _spherical_minimal():
+    """The example's rod on 3-2-1 angles about its fixed top end: Lagrange's equations from its energy."""
+    import casadi as ca
+    from newcomer_reference import LagrangeSystem, RigidBody, rot1, rot2, rot3
+
+    q, w = ca.SX.sym("q", 3), ca.SX.sym("w", 3)
+    R = rot3(q[0]) @ rot2(q[1]) @ rot1(q[2])
+    body = [RigidBody(1.0, np.diag([1 / 12, 1 / 12, 0.01]), R @ ca.DM([0, 0, -0.5]), R)]
+    free = LagrangeSystem(q, w, body, np.array([0, 0, -9.81]))
+    return LagrangeSystem(q, w, body, np.array([0, 0, -9.81]), free.torque_work(0, w)), body
+
+
+def test_wheel_on_slope_example_matches_minimal_coordinates_and_the_friction_cone_closed_form():
+    """Same Radau 3, N = 20 in the rolling angle alone (Opti): the same optimum to 1e-8. The cone is active,
+    so the largest friction force is mu N, and N = m g cos(slope) since the center stays at height R."""
+    import casadi as ca
+    from newcomer_reference import LagrangeSystem, RigidBody, radau_solve, rot2
+
+    out = _run("wheel_on_slope.py")
+    m, R, slope, mu = 2.0, 0.2, math.radians(20.0), 0.6
+    g = np.array([-9.81 * math.sin(slope), 0.0, -9.81 * math.cos(slope)])
+    q, w = ca.SX.sym("q", 1), ca.SX.sym("w", 1)
+    body = [RigidBody(m, m * R**2 * np.diag([0.25, 0.5, 0.25]), ca.vertcat(R * q[0], 0, R), rot2(q[0]))]
+    s = LagrangeSystem(q, w, body, g, LagrangeSystem(q, w, body, g).torque_work(0, ca.vertcat(0, w[0], 0)))
+    v = ca.jtimes(body[0].x, s.q, s.qd)
+    F = m * (ca.jtimes(v, s.q, s.qd) + ca.jtimes(v, s.qd, s.qdd) - ca.DM(g))
+    ref = radau_solve(s, 20, 1.5, ca.sumsqr(w), {0: 0.0, 1: 0.0}, {0: 1.0 / R, 1: 0.0},
+                      path=[(F[2], 0.0, np.inf), (F[0] ** 2 - mu**2 * F[2] ** 2, -np.inf, 0.0)])
+    assert _number(r"objective ([-\d.e+]+)", out) == pytest.approx(ref["objective"], rel=1e-8)
+    normal = m * 9.81 * math.cos(slope)
+    assert _number(r"normal force ([-\d.e+]+) N", out) == pytest.approx(normal, rel=1e-6)
+    assert _number(r"largest friction force ([-\d.e+]+) N", out) == pytest.approx(mu * normal, rel=1e-6)
+
+
+def test_spherical_pendulum_example_matches_minimal_coordinates_and_newton_at_the_ball():
+    """The reference: 3-2-1 angles, Lagrange's equations, Radau 3, N = 20 in Opti. The two transcriptions
+    (maximal coordinates with the ball joint's rows, and three angles) are different discretizations of
+    one problem: their objectives differ by 4e-5 at N = 20 and 1e-6 at N = 40 (measured), so the check
+    is 1e-4. The ball force by Newton on the reference's solution, m (a_cm - g), peaks within 3e-3 of
+    the example's (the multipliers' discretization error at N = 20: 1.8e-3 along the solution)."""
+    import casadi as ca
+    from newcomer_reference import radau_solve
+
+    out = _run("spherical_pendulum.py")
+    s, body = _spherical_minimal()
+    ref = radau_solve(s, 20, 2.0, ca.sumsqr(s.w), {i: 0.0 for i in range(6)},
+                      {0: 0.6, 1: 0.4, 2: 0.9, 3: 0.0, 4: 0.0, 5: 0.0})
+    assert _number(r"objective ([-\d.e+]+)", out) == pytest.approx(ref["objective"], rel=1e-4)
+    v = ca.jtimes(body[0].x, s.q, s.qd)
+    a = ca.SX.sym("a", 3)
+    force = ca.Function("F", [s.q, s.qd, a], [ca.norm_2(ca.jtimes(v, s.q, s.qd) + ca.jtimes(v, s.qd, a)
+                                                        + ca.DM([0, 0, 9.81]))])
+    X, W = ref["X"], ref["W"]
+    peak = max(float(force(X[:3, i + 1], X[3:, i + 1], ref["f"](X[:, i + 1], W[:, i])[2])) for i in range(W.shape[1]))
+    assert _number(r"largest ([-\d.e+]+) N", out) == pytest.approx(peak, rel=3e-3)

@@ -1,0 +1,159 @@
+"""Independent references for user-written optimal-control problems (issue 13, "problems not in the suite").
+
+Minimal coordinates and Lagrange's equations, derived here from the kinetic and potential energy of
+the bodies (no constraint, no multiplier, nothing of ``ocp_constraints``), transcribed with plain
+CasADi Opti by Legendre-Gauss-Radau collocation of degree 3 (states at the mesh and collocation
+points, inputs at the collocation points, the objective by the Radau quadrature) and solved by IPOPT.
+Constraint loads are recomputed from the solution by Newton-Euler on a body (``a_cm`` from the
+generalized coordinates), again without the library.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from typing import Callable
+
+import casadi as ca
+import numpy as np
+
+
+def rot3(a):
+    c, s = ca.cos(a), ca.sin(a)
+    return ca.vertcat(ca.horzcat(c, -s, 0), ca.horzcat(s, c, 0), ca.horzcat(0, 0, 1))
+
+
+def rot2(a):
+    c, s = ca.cos(a), ca.sin(a)
+    return ca.vertcat(ca.horzcat(c, 0, s), ca.horzcat(0, 1, 0), ca.horzcat(-s, 0, c))
+
+
+def rot1(a):
+    c, s = ca.cos(a), ca.sin(a)
+    return ca.vertcat(ca.horzcat(1, 0, 0), ca.horzcat(0, c, -s), ca.horzcat(0, s, c))
+
+
+@dataclass
+class RigidBody:
+    """A body in minimal coordinates: mass (kg), inertia about the center of mass (body basis, kg m^2),
+    center of mass ``x(q)`` (m, fixed basis) and rotation ``R(q)`` (body basis in the fixed basis)."""
+
+    mass: float
+    inertia: np.ndarray
+    x: ca.SX
+    R: ca.SX
+
+
+@dataclass
+class LagrangeSystem:
+    """``d/dt dT/dqd - dT/dq + dV/dq = Q(q, qd, w)`` for a list of rigid bodies; ``Q`` from fixed-basis
+    torques on bodies and forces at points, as functions of the inputs ``w``."""
+
+    q: ca.SX
+    w: ca.SX
+    bodies: list[RigidBody]
+    gravity: np.ndarray
+    generalized_force: ca.SX = None
+    qd: ca.SX = field(init=False)
+
+    def __post_init__(self):
+        n = self.q.numel()
+        self.qd = ca.SX.sym("qd", n)
+        T, V = 0, 0
+        self.v, self.omega = [], []
+        for b in self.bodies:
+            v = ca.jtimes(b.x, self.q, self.qd)
+            Rdot = ca.jtimes(b.R, self.q, self.qd)
+            W = Rdot @ b.R.T
+            om = ca.vertcat(W[2, 1], W[0, 2], W[1, 0])
+            self.v.append(v)
+            self.omega.append(om)
+            T += 0.5 * b.mass * ca.dot(v, v) + 0.5 * ca.dot(om, b.R @ ca.DM(b.inertia) @ b.R.T @ om)
+            V -= b.mass * ca.dot(ca.DM(self.gravity), b.x)
+        Qg = ca.SX.zeros(n) if self.generalized_force is None else self.generalized_force
+        M = ca.hessian(T, self.qd)[0]
+        dTdqd = ca.gradient(T, self.qd)
+        rhs = Qg + ca.gradient(T, self.q) - ca.gradient(V, self.q) - ca.jtimes(dTdqd, self.q, self.qd)
+        self.qdd = ca.solve(M, rhs)
+        self.T, self.V = T, V
+
+    def torque_work(self, body: int, torque: ca.SX) -> ca.SX:
+        """Generalized force of a fixed-basis torque on body ``body``: ``(d omega/d qd)^T tau``."""
+        return ca.jacobian(self.omega[body], self.qd).T @ torque
+
+    def force_work(self, point: ca.SX, force: ca.SX) -> ca.SX:
+        """Generalized force of a fixed-basis force at the point ``point(q)``."""
+        return ca.jacobian(point, self.q).T @ force
+
+
+def radau_solve(system: LagrangeSystem, N: int, t_final, lagrangian: ca.SX, initial: dict, final: dict,
+                input_bounds=None, path: list | None = None, guess_q: Callable | None = None,
+                free_time: tuple | None = None, time_weight: float = 0.0, degree: int = 3,
+                start: tuple | None = None) -> dict:
+    """Radau-``degree`` collocation on ``N`` uniform intervals of ``x = (q, qd)``, ``x' = (qd, qdd)``.
+
+    ``initial``/``final``: index -> value over ``x``; ``path``: ``(expression of q, qd, qdd, w, lower, upper)``;
+    ``free_time``: ``(lower, upper)`` with ``t_final`` the guess; ``start``: ``(X, W)`` a full guess at
+    the points (states ``2n x (N degree + 1)``, inputs ``m x N degree``). Returns the objective, iterations and samples.
+    """
+    n, m = system.q.numel(), system.w.numel()
+    x = ca.vertcat(system.q, system.qd)
+    f = ca.Function("f", [x, system.w], [ca.vertcat(system.qd, system.qdd), lagrangian, system.qdd])
+    tau = np.array(ca.collocation_points(degree, "radau"))
+    nodes = np.r_[0.0, tau]
+    C = np.zeros((degree + 1, degree + 1))
+    B = np.zeros(degree + 1)
+    for j in range(degree + 1):
+        p = np.poly1d([1.0])
+        for r in range(degree + 1):
+            if r != j:
+                p *= np.poly1d([1.0, -nodes[r]]) / (nodes[j] - nodes[r])
+        dp = np.polyder(p)
+        for r in range(degree + 1):
+            C[j, r] = dp(nodes[r])
+        B[j] = np.polyint(p)(1.0)
+    opti = ca.Opti()
+    T = opti.variable() if free_time else t_final
+    if free_time:
+        opti.subject_to(opti.bounded(free_time[0], T, free_time[1]))
+        opti.set_initial(T, t_final)
+    h = T / N
+    X = opti.variable(2 * n, N * degree + 1)
+    Wv = opti.variable(m, N * degree) if m else None
+    J = time_weight * T if free_time else 0
+    path_fn = None
+    if path:
+        path_fn = ca.Function("path", [x, system.w], [ca.vertcat(*[p[0] for p in path])])
+        plo, pup = np.array([p[1] for p in path]), np.array([p[2] for p in path])
+    for k in range(N):
+        cols = [X[:, k * degree + j] for j in range(degree + 1)]
+        for j in range(1, degree + 1):
+            xp = sum(C[r, j] * cols[r] for r in range(degree + 1))
+            wk = Wv[:, k * degree + j - 1] if m else ca.DM.zeros(0)
+            dx, L, _ = f(cols[j], wk)
+            opti.subject_to(xp == h * dx)
+            J += h * B[j] * L
+            if path_fn is not None:
+                g = path_fn(cols[j], wk)
+                for i in range(len(path)):
+                    opti.subject_to(opti.bounded(plo[i], g[i], pup[i]))
+            if input_bounds is not None and m:
+                opti.subject_to(opti.bounded(input_bounds[0], wk, input_bounds[1]))
+    for i, v in initial.items():
+        opti.subject_to(X[i, 0] == v)
+    for i, v in final.items():
+        opti.subject_to(X[i, -1] == v)
+    if guess_q is not None:
+        s = np.linspace(0.0, 1.0, N * degree + 1)
+        opti.set_initial(X[:n, :], np.atleast_2d(guess_q(s)))
+    if start is not None:
+        opti.set_initial(X, start[0])
+        if m:
+            opti.set_initial(Wv, start[1])
+    opti.minimize(J)
+    opti.solver("ipopt", {"print_time": False}, {"print_level": 0, "sb": "yes", "tol": 1e-10})
+    sol = opti.solve()
+    Tf = float(sol.value(T)) if free_time else float(t_final)
+    t = np.concatenate([[0.0], (np.arange(N)[:, None] + tau[None, :]).ravel()]) * Tf / N
+    Xs = np.atleast_2d(sol.value(X))
+    Ws = np.atleast_2d(sol.value(Wv)) if m else np.zeros((0, N * degree))
+    return {"objective": float(sol.value(J)), "iterations": int(sol.stats()["iter_count"]), "t": t, "X": Xs,
+            "W": Ws, "t_final": Tf, "f": f}
