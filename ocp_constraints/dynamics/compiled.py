@@ -305,6 +305,8 @@ def _start_background(f: ca.Function, with_jacobian: bool, cc: list[str], path: 
         return
     lock.write_text(f"{socket.gethostname()} {proc.pid}\n")     # the compiler's process holds the lock now
     proc.library = path
+    for job in background_jobs:
+        job.poll()             # reap finished compiles (no zombie per compiled model in a long-lived process)
     background_jobs.append(proc)
     _note(f"background:{path}", f"compiling {what} in the background for later runs")
 
