@@ -22,16 +22,22 @@ def _errors(sol, truth) -> dict[str, float]:
                    sol.transcription.scheme.intervals, names(sol)).totals
 
 
+@pytest.fixture(scope="module")
+def pontryagin():
+    """The swing-up's Pontryagin extremal (shooting + DOP853), computed once for both coordinates."""
+    from ocp_constraints.bench.references import swing_up_reference
+
+    return swing_up_reference()
+
+
 @pytest.mark.parametrize("coordinates, nlp", [("auto", "joint"), ("maximal", "maximal")])
-def test_estimate_brackets_the_true_error_of_the_swing_up(coordinates, nlp):
+def test_estimate_brackets_the_true_error_of_the_swing_up(coordinates, nlp, pontryagin):
     """Swing-up at tolerance 1e-4 from Radau 3 on 10 intervals, in the default coordinates (joint:
     the estimate reads states and multipliers by name, the hinge's from the rod's balance) and in
     maximal ones: against the Pontryagin extremal (shooting + DOP853, all 12 states from psi and
     the hand-written hinge loads) the true error meets the tolerance and lies between a tenth of
     the estimate and the estimate."""
-    from ocp_constraints.bench.references import swing_up_reference
-
-    ref = swing_up_reference()
+    ref = pontryagin
     _, problem = build_task("pendulum", "swing_up")
     problem.coordinates = coordinates
     sol = problem.solve(Radau(10, degree=3), tolerance=1e-4)
