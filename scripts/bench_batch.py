@@ -51,7 +51,8 @@ KINDS = {   # the README's "Cost per run" rows
                                 "--motion", str(G2354 / "subject01_walk1_ik.mot"),
                                 "--grf", str(G2354 / "subject01_walk1_grf.mot")],
     "gait JW ngait_og5": ["gait", *JW_ARGS],
-    "knee JW ngait_og5 (static)": ["knee", *JW_ARGS, "--measured", str(JW / "reducepoly_subject_GC/KCF/KCF_ngait_og5.mat")],
+    "knee JW ngait_og5 (static)": ["knee", *JW_ARGS,
+                                   "--measured", str(JW / "reducepoly_subject_GC/KCF/KCF_ngait_og5.mat")],
 }
 
 
@@ -119,9 +120,10 @@ def speedup(args) -> None:
                 b = _batch(sweeps, workers, warm)
                 got.setdefault((warm, workers), []).append(b)
                 over = b["driver"] + b["workers"] + b["servers"]
-                print(f"  repeat {rep + 1}, {'warm ' if warm else 'fresh'}, {workers} worker(s): whole {b['whole']:6.2f} s "
-                      f"(start {b['start']:.2f}, runs {b['phase']:.2f}, close {b['close']:.2f}); runs' wall sum "
-                      f"{b['runs_wall']:.2f} s. CPU: runs {b['runs_cpu']:.2f} s ({b['runs_cpu'] / args.runs:.3f} per run), "
+                print(f"  repeat {rep + 1}, {'warm ' if warm else 'fresh'}, {workers} worker(s): whole "
+                      f"{b['whole']:6.2f} s (start {b['start']:.2f}, runs {b['phase']:.2f}, close {b['close']:.2f}); "
+                      f"runs' wall sum {b['runs_wall']:.2f} s. CPU: runs {b['runs_cpu']:.2f} s "
+                      f"({b['runs_cpu'] / args.runs:.3f} per run), "
                       f"driver {b['driver']:.2f} (+{b['driver_start']:.2f} at start), workers {b['workers']:.2f}, "
                       f"fork servers {b['servers']:.2f}: overhead {over:.2f} s = {100 * over / b['runs_cpu']:.1f} % "
                       f"of the runs' CPU; steal {b['steal']:.2f} s", flush=True)
@@ -197,7 +199,8 @@ def costs(args) -> None:
     def med(name, warm, key):
         return statistics.median(row[key] for row in got[(name, warm)])
 
-    print("\n| run | CPU time, forked (fresh) | wall at this load | peak memory, fresh (forked) |\n|---|---:|---:|---:|")
+    print("\n| run | CPU time, forked (fresh) | wall at this load | peak memory, fresh (forked) |")
+    print("|---|---:|---:|---:|")
     for name in KINDS:
         print(f"| `{name}` | {med(name, True, 'cpu_time'):.2f} s ({med(name, False, 'cpu_time'):.2f} s) | "
               f"{med(name, True, 'wall_time'):.1f} s | {med(name, False, 'max_rss_mb'):.0f} MB "

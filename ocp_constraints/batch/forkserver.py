@@ -11,7 +11,7 @@ working directory (also ``sys.path[0]``, as ``-m`` sets it), stdin ``/dev/null``
 stderr to the run's files, and the interpreter's normal exit (atexit handlers, flushed
 streams). On stdout it answers ``{"pid": ...}`` at the fork (``{"refused": why}`` if it has
 more than one thread then) and ``{"exit": ..., "cpu": ...,
-"max_rss_kb": ...}`` when the child ends (``os.wait4``: the run's own CPU time and peak memory).
+"max_rss": ...}`` when the child ends (``os.wait4``: the run's own CPU time and peak memory).
 A child is an independent process as a fresh one would be: Ctrl-C/SIGTERM reach it alone, its
 crash costs nothing else. Forking is safe because the server has one thread (it says how many
 it has in its first line; :mod:`.launch` does not use a server that has more) and BLAS/OpenMP
@@ -79,7 +79,7 @@ def serve() -> None:
         _reply(replies, {"pid": pid})
         _, status, usage = os.wait4(pid, 0)
         _reply(replies, {"exit": os.waitstatus_to_exitcode(status), "cpu": round(usage.ru_utime + usage.ru_stime, 4),
-                         "max_rss_kb": usage.ru_maxrss})
+                         "max_rss": usage.ru_maxrss})   # (KiB on Linux, bytes on macOS)
     sys.exit(code)   # the child leaves as `python -m` would: atexit handlers, threads joined, streams flushed
 
 

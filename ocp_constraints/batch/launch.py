@@ -152,7 +152,7 @@ class ForkServer:
         while True:
             msg = self._message(POLL, allow_timeout=True)
             if msg is not None:
-                return Outcome(msg["exit"], cancelled, msg["cpu"], round(msg["max_rss_kb"] / 1024, 1), "warm")
+                return Outcome(msg["exit"], cancelled, msg["cpu"], _mb(msg["max_rss"]), "warm")
             if not cancelled and os.path.exists(cancel_file):
                 cancelled, killed_at = True, time.monotonic()
                 _signal_group(pid, signal.SIGTERM)
@@ -202,25 +202,36 @@ def _fresh(args, cwd, stdout, stderr, cancel_file) -> Outcome:
                                 preexec_fn=die_with_parent())
     cancelled, killed_at, delay = False, None, 0.005
     while True:
-        pid, status, usage = os.wait4(proc.pid, os.WNOHANG)
-        if pid:
-            proc.returncode = os.waitstatus_to_exitcode(status)   # reaped here: Popen must not wait again
-            return Outcome(proc.returncode, cancelled, round(usage.ru_utime + usage.ru_stime, 4),
-                           round(usage.ru_maxrss / 1024, 1), "fresh")
+        if hasattr(os, "wait4"):
+            pid, status, usage = os.wait4(proc.pid, os.WNOHANG)
+            if pid:
+                proc.returncode = os.waitstatus_to_exitcode(status)   # reaped here: Popen must not wait again
+                return Outcome(proc.returncode, cancelled, round(usage.ru_utime + usage.ru_stime, 4),
+                               _mb(usage.ru_maxrss), "fresh")
+        elif proc.poll() is not None:   # (Windows: no wait4, so no CPU time or peak memory)
+            return Outcome(proc.returncode, cancelled, None, None, "fresh")
         time.sleep(delay)
         delay = min(2 * delay, POLL)
         if not cancelled and os.path.exists(cancel_file):
             cancelled, killed_at = True, time.monotonic()
             _signal_group(proc.pid, signal.SIGTERM)
         elif killed_at is not None and time.monotonic() - killed_at > GRACE:
-            _signal_group(proc.pid, signal.SIGKILL)
+            _signal_group(proc.pid, getattr(signal, "SIGKILL", signal.SIGTERM))
             killed_at = None
+
+
+def _mb(max_rss: int) -> float:
+    """``ru_maxrss`` in MB (Linux counts it in KiB, macOS in bytes)."""
+    return round(max_rss / (2**20 if sys.platform == "darwin" else 2**10), 1)
 
 
 def _signal_group(pid: int, sig: int) -> None:
     try:
-        os.killpg(pid, sig)   # the run leads its own session: the run and whatever it forked
-    except ProcessLookupError:
+        if hasattr(os, "killpg"):
+            os.killpg(pid, sig)   # the run leads its own session: the run and whatever it forked
+        else:
+            os.kill(pid, signal.SIGTERM)   # (Windows: terminates the process)
+    except (ProcessLookupError, PermissionError):
         pass
 
 
