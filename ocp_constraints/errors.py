@@ -57,11 +57,30 @@ class SingularConfigurationError(ModelError):
 # -- optimal control
 
 class OCPSolveError(OcpConstraintsError, RuntimeError):
-    """IPOPT did not converge; ``solution`` holds the last iterate (``success`` False)."""
+    """IPOPT did not converge; ``solution`` holds the last iterate (``success`` False). The message also
+    names what the last iterate violates most (``solution.violations()``: path constraints by label,
+    bounds and boundary values by quantity), since IPOPT's 'Infeasible_Problem_Detected' names nothing."""
 
     def __init__(self, message: str, solution):
         super().__init__(message)
         self.solution = solution
+
+    def __str__(self) -> str:
+        # Read when printed: a joint-coordinate solve puts the bodies' solution in after raising.
+        cached = self.__dict__.get("_note")
+        if cached is None or cached[0] is not self.solution:
+            cached = self.__dict__["_note"] = (self.solution, _violation_note(self.solution))
+        return super().__str__() + cached[1]
+
+
+def _violation_note(solution) -> str:
+    try:
+        found = solution.violations(top=3)
+    except Exception:  # no solution, or one that cannot be evaluated: the message as it was
+        return ""
+    if not found:
+        return ""
+    return "; most violated there: " + ", ".join(f"{what} by {amount:.3g} at t = {t:.3g} s" for what, amount, t in found)
 
 
 # -- C export

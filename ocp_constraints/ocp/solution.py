@@ -9,8 +9,8 @@ from __future__ import annotations
 
 from dataclasses import dataclass, field
 
+import casadi as ca
 import numpy as np
-
 
 from ..dynamics.result import Result
 from ..dynamics.trajectory import Trajectory
@@ -99,6 +99,42 @@ class OCPSolution(Result):
             cached = self.__dict__["_interpolation"] = (key, self.transcription.interpolation_matrix(times / self.t_final))
         return cached[1] @ self.sample(name)
 
+
+    def violations(self, tol: float = 1e-6, top: int = 5) -> list[tuple[str, float, float]]:
+        """The problem's rows this solution violates most, by name, worst first: ``(what, amount, t)``.
+
+        For a failed solve (an :class:`~ocp_constraints.errors.OCPSolveError`'s ``.solution``, e.g. IPOPT's
+        'Infeasible_Problem_Detected'): path constraints by their label (friction cones, load bounds),
+        bounds and boundary values by their quantity, in the problem's units, at the point where each
+        is worst; only amounts above ``tol``. The dynamics defects are not included.
+        """
+        tr = self.transcription
+        pr = getattr(tr, "user_problem", tr.problem)     # a joint-coordinate NLP: the user's problem
+        e, traj, t = pr.eqs, self.trajectory, self.t
+        found: list[tuple[str, float, float]] = []
+
+        def worst(what: str, amount: np.ndarray) -> None:
+            k = int(np.argmax(amount))
+            if amount[k] > tol:
+                found.append((what, float(amount[k]), float(t[k])))
+
+        if pr.path_constraints:
+            f = ca.Function("path", [e.q, e.u, e.inputs, pr.lam, e.t],
+                            [ca.vertcat(*[c.expression for c in pr.path_constraints])]).map(len(t))
+            g = np.asarray(f(np.asarray(traj.q).T, np.asarray(traj.u).T, np.asarray(traj.inputs).T,
+                             np.asarray(traj.lam).T, t[None, :])).reshape(len(pr.path_constraints), len(t))
+            for c, row in zip(pr.path_constraints, g):
+                worst(f"path constraint '{c.label}' ({c.lower:g} <= . <= {c.upper:g})",
+                      np.maximum(c.lower - row, row - c.upper))
+        for name, (lo, hi) in pr.bounds.items():
+            v = self.sample(name)
+            worst(f"bound on '{name}' [{lo:g}, {hi:g}]", np.maximum(lo - v, v - hi))
+        for which, values, k in (("initial", pr.initial_values, 0), ("final", pr.final_values, -1)):
+            for name, v in values.items():
+                amount = abs(float(self.sample(name)[k]) - v)
+                if amount > tol:
+                    found.append((f"{which} value of '{name}' = {v:g}", amount, float(t[k])))
+        return sorted(found, key=lambda x: -x[1])[:top]
 
     def joint_work(self) -> dict[str, float]:
         """Work of each joint load over the horizon (J): the scheme's quadrature of ``power``."""
