@@ -24,6 +24,16 @@ slack: Posa et al.'s ``q' = N u + phi_q^T gamma`` (Posa, Cantu, Tedrake 2016) an
 Multipliers, loads and power are expressions of the point's variables, so objectives and path
 constraints on them (friction cones, load bounds) are rows of the point elements, and the solution
 is handed back with every multiplier at every point, as the maximal form's.
+
+Why ``coordinates="auto"`` does not choose this form (Radau 3, N = 20, CPU seconds maximal ->
+condensed, ``python scripts/ocp_condensed_bench.py``): it wins where the maximal NLP needs many
+iterations (quadrotor with load 1.92 -> 0.58, 18 -> 7 iterations; rolling disk 2.80 -> 1.30,
+198 -> 44) and loses elsewhere (the issue's textbook cart-pole written by hand 0.51 -> 2.00, the
+swing-up with a hand-written hinge 0.31 -> 0.65, ball_socket reach 2.34 -> 2.80, four-bar
+7.2 -> 128): the exact Hessian of a symbolic KKT solution costs 10-20 times the maximal form's
+nearly linear dynamics rows per iteration (textbook: 46 ms against 2.3 ms per Hessian call), and
+with mesh slacks the constraints hold at the mesh points only (between them they drift by the
+scheme's error, where DESIGN.md asks for solver tolerance at every collocation point).
 """
 from __future__ import annotations
 
