@@ -138,3 +138,37 @@ def test_hp_mesh_transcribes_each_interval_with_its_own_degree():
     assert Radau(3, degrees=(4, 4, 4)) == Radau(3, degree=4)
     with pytest.raises(ModelError, match="degrees"):
         Radau(2, degrees=(3,))
+
+
+def test_unresolved_comparison_is_recognised_by_objective_or_state_range():
+    """resolution(): the objectives' relative difference and the largest state difference over that
+    state's range, by hand: J = 1.8 against 40 is 0.955 apart; a state moving over [0, 2] that differs by
+    0.6 is 0.3 of its range; a constant state (no range) is left out."""
+    from types import SimpleNamespace
+
+    from ocp_constraints.ocp.error_estimate import UNRESOLVED_OBJECTIVE, UNRESOLVED_STATE, ErrorEstimate, resolution
+
+    ref = np.array([[0.0, 1.0, 2.0], [5.0, 5.0, 5.0]])
+    ours = ref + np.array([[0.0, 0.6, 0.0], [0.0, 3.0, 0.0]])
+    obj, state = resolution(SimpleNamespace(objective=1.8), SimpleNamespace(objective=40.0), ours, ref)
+    assert obj == pytest.approx(38.2 / 40.0) and state == pytest.approx(0.3)
+    est = ErrorEstimate({}, {}, 1.0, 1.0, objective_change=obj, state_change=state)
+    assert not est.resolved and obj > UNRESOLVED_OBJECTIVE and state > UNRESOLVED_STATE
+    assert ErrorEstimate({}, {}, 1.0, 1.0, objective_change=1e-4, state_change=1e-3).resolved
+
+
+def test_unresolved_step_halves_the_companion_and_rough_needs_a_non_smooth_interval():
+    """uniform_step halves every interval of the companion at its degrees capped at MAX_DEGREE; refine
+    splits at MIN_DEGREE an interval whose estimate fell less than tenfold only where it is not smooth,
+    else it raises the degree (a fall of 4x per degree: ratio 50 at degree 5 asks for 5 + 3 = 8 > 7,
+    so a split at 7 into ceil((50 / 16)^(1/7)) = 2 pieces)."""
+    from ocp_constraints.ocp.mesh_refinement import MAX_DEGREE, MIN_DEGREE, _ends, refine, uniform_step
+
+    step = uniform_step(Radau(mesh=(0.0, 0.25, 1.0), degrees=(9, 5)))
+    assert list(step.mesh_fractions) == [0.0, 0.125, 0.25, 0.625, 1.0]
+    assert list(step.points_per_interval - 1) == [MAX_DEGREE, MAX_DEGREE, 5, 5]
+    scheme = Radau(mesh=(0.0, 0.5, 1.0), degrees=(5, 5))
+    parents = {_ends(0.0, 0.5): 60.0, _ends(0.5, 1.0): 60.0}
+    new, _ = refine(scheme, np.array([50.0, 50.0]), parents, nonsmooth=np.array([True, False]))
+    assert list(new.mesh_fractions) == [0.0, 0.25, 0.5, 0.75, 1.0]
+    assert list(new.points_per_interval - 1) == [MIN_DEGREE, MIN_DEGREE, MAX_DEGREE, MAX_DEGREE]

@@ -15,7 +15,16 @@
    :data:`MAX_DEGREE`, else it is split at that degree into as many pieces as the rest of the
    error needs; an interval refined last time whose estimate fell less than tenfold is not smooth
    there (a switch, a kink) and is split in two at :data:`MIN_DEGREE`. So non-smooth solutions end
-   with short intervals at their switches, not a globally fine mesh;
+   with short intervals at their switches, not a globally fine mesh.
+   A split at :data:`MIN_DEGREE` needs both: the fall too slow *and* the interval's inputs or
+   multipliers not smooth (:func:`.error_estimate.legendre_decay`); a smooth interval whose estimate
+   fell too slowly is still short of resolution, and dropping its degree to 3 only makes it worse
+   (four-bar and acrobot: every interval "rough", all reset to degree 3, hundreds of intervals);
+   *guard*: where the companion differs from the solution by more than a mesh error can be (the
+   objectives by more than 2%, a state by more than a quarter of its range, :func:`.error_estimate.resolution`),
+   the two are not one optimum seen at two resolutions, and the per-interval estimate says nothing:
+   the next mesh is then the companion's, every interval halved (:func:`uniform_step`), warm-started
+   from the companion, no interval judged rough from it, and "met" is not claimed on it;
 4. when the estimate meets the tolerance, check that it can be trusted: an interval whose inputs
    or multipliers jump inside it (their Legendre coefficients do not fall) withdraws "met" and is
    named (:func:`_flag_nonsmooth`): there the companion is no upper bound.
@@ -37,7 +46,7 @@ import time
 import numpy as np
 
 from ..errors import ModelError, OCPSolveError
-from .error_estimate import DECAY_LIMIT, estimate_error, legendre_decay
+from .error_estimate import DECAY_LIMIT, UNRESOLVED_OBJECTIVE, UNRESOLVED_STATE, estimate_error, legendre_decay
 from .schemes import Radau
 
 MIN_DEGREE = 3
@@ -116,14 +125,26 @@ def covered(scheme: Radau, by: Radau) -> bool:
     return bool(np.all(_degrees(by) >= _degrees(scheme)[k]))
 
 
-def refine(scheme: Radau, ratio: np.ndarray, parents: dict | None = None) -> tuple[Radau, dict]:
+def uniform_step(companion: Radau) -> Radau:
+    """The next mesh where the solution is not yet resolved (:func:`.error_estimate.resolution`): the
+    companion's mesh (the finer of the two just solved), every interval halved, at its degrees up to
+    :data:`MAX_DEGREE`. Uniform, because an unresolved comparison does not say where the error is."""
+    mesh = companion.mesh_fractions
+    halves = np.sort(np.concatenate([mesh, (mesh[:-1] + mesh[1:]) / 2]))
+    degrees = np.repeat(np.minimum(_degrees(companion), MAX_DEGREE), 2)
+    return Radau(mesh=tuple(float(m) for m in halves), degrees=tuple(int(d) for d in degrees))
+
+
+def refine(scheme: Radau, ratio: np.ndarray, parents: dict | None = None,
+           nonsmooth: np.ndarray | None = None) -> tuple[Radau, dict]:
     """The next mesh, and each new interval's parent ``(ends) -> ratio``.
 
     ``ratio[k]`` is interval ``k``'s estimate over the tolerance (the largest of the gated
     quantities); ``parents`` maps an interval's ends to the ratio of the interval it was made from
-    one refinement back. An interval refined last time whose ratio fell less than tenfold is
-    *rough* (a switch or a kink inside: neither a higher degree nor a split at a high degree
-    helps much): it is split in two at :data:`MIN_DEGREE`. A smooth one gets the degree that
+    one refinement back. An interval refined last time whose ratio fell less than tenfold, and
+    whose inputs or multipliers are not smooth (``nonsmooth[k]``, from
+    :func:`.error_estimate.legendre_decay`; None: not checked) is *rough* (a switch or a kink inside:
+    neither a higher degree nor a split at a high degree helps much): it is split in two at :data:`MIN_DEGREE`. A smooth one gets the degree that
     the error's fall of about 4x per degree predicts, ``d + ceil(log(ratio) / log 4)``, if that is at
     most :data:`MAX_DEGREE`; else it is split at :data:`MAX_DEGREE` into the number of pieces that
     the rest of the ratio needs (error ~ h^MAX_DEGREE), 2 to :data:`MAX_PIECES`.
@@ -138,7 +159,7 @@ def refine(scheme: Radau, ratio: np.ndarray, parents: dict | None = None) -> tup
             continue
         needed = d + max(1, math.ceil(math.log(r) / math.log(4.0)))
         parent = (parents or {}).get(_ends(a, b))
-        rough = parent is not None and r > parent / 10.0
+        rough = parent is not None and r > parent / 10.0 and (nonsmooth is None or bool(nonsmooth[k]))
         if b - a <= MIN_INTERVAL:
             pieces, degree = [b], min(d + 1, MAX_DEGREE)
         elif rough:
@@ -267,6 +288,18 @@ def solve_to_tolerance(problem, tolerance, method=None, ipopt_options: dict | No
         ratio = np.max([est.per_interval[q] for q in GATED], axis=0) / tol
         record.update(mesh=entry["mesh"], degrees=entry["degrees"], estimate=entry["estimate"], worst=entry["worst"],
                       total_time_s=total, total_cpu_s=total_cpu, refinements=r)
+        if not est.resolved:
+            # Guard: the two solutions are not one optimum at two resolutions (module notes, step 2).
+            if r == max_refinements:
+                record["message"] = (f"not resolved after {r} refinements: the solution and its companion still "
+                                     f"differ by {est.objective_change:.1e} in the objective and {est.state_change:.2f} "
+                                     f"of a state's range (more than a mesh error can: {UNRESOLVED_OBJECTIVE:g}, "
+                                     f"{UNRESOLVED_STATE:g}), so the estimate is not an error; raise max_refinements "
+                                     f"or start from a finer mesh")
+                break
+            new, parents, solved = uniform_step(companion.transcription.scheme), None, None
+            scheme, warm = new, companion
+            continue
         if all(est.totals[q] <= tol for q in GATED):
             record.update(met=True, message=f"estimated error at most {tol:g} after {r} refinements "
                                             f"({scheme.intervals} intervals, {scheme.point_count} points)")
@@ -288,10 +321,11 @@ def solve_to_tolerance(problem, tolerance, method=None, ipopt_options: dict | No
         # Rough intervals (see refine): where the solution switches; a jump of the inputs and
         # multipliers there keeps their largest error near the jump's size at any mesh.
         mesh = scheme.mesh_fractions
-        rough = [[float(a), float(b)] for a, b, q in zip(mesh[:-1], mesh[1:], ratio)
-                 if q > 1.0 and (parents or {}).get(_ends(a, b), np.inf) < 10.0 * q]
+        nonsmooth = legendre_decay(sol)[0] > DECAY_LIMIT
+        rough = [[float(a), float(b)] for a, b, q, j in zip(mesh[:-1], mesh[1:], ratio, nonsmooth)
+                 if q > 1.0 and j and (parents or {}).get(_ends(a, b), np.inf) < 10.0 * q]
         entry["rough_intervals"] = rough
-        new, parents = refine(scheme, ratio, parents)
+        new, parents = refine(scheme, ratio, parents, nonsmooth)
         if new == scheme:
             record["message"] = (f"estimate above {tol:g} on intervals that cannot be refined further "
                                  f"(shorter than {MIN_INTERVAL:g} of the horizon at degree {MAX_DEGREE})")
