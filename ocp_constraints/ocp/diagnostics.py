@@ -46,6 +46,7 @@ def check_problem(problem, method) -> Diagnostics:
     _check_horizon(problem)
     _check_guesses(problem, method)
     _check_boundary_bounds(problem)
+    _check_quaternion_ends(problem)
     t0, tf = 0.0, float(problem.t_final)
     free = problem.free_initial_values
     q0, pos_dof = _positions(problem, problem.initial_values, t0, "initial", free)
@@ -128,6 +129,7 @@ def _positions(problem, values: dict, t: float, which: str, free: set | None) ->
     given = [i for i, n in enumerate(names) if n in values]
     q = np.array(_guess_at(problem, names, t), float)
     q[given] = [values[names[i]] for i in given]
+    unit_quaternions(eqs, q)
     rest = [i for i in range(eqs.nq) if i not in given]
     u0, w0 = np.zeros(eqs.nu), np.zeros(eqs.inputs.numel())
     norm_rows = _quaternion_rows(eqs)
@@ -149,15 +151,21 @@ def _positions(problem, values: dict, t: float, which: str, free: set | None) ->
     dof = eqs.nq - _rank(np.vstack([J, norm_rows(q)]))
     if free is not None:
         fixed = [i for i, n in enumerate(names) if n in values or n in free]
-        rows = np.vstack([J, norm_rows(q), np.eye(eqs.nq)[fixed]])
+        # No norm rows here: the NLP has no row for a quaternion's length, which the kinematics carry from
+        # its initial value; initial values that leave the length free let IPOPT scale it (qw = 84.6
+        # and an objective 7,000 times too small, measured on a spherical pendulum).
+        rows = np.vstack([J, np.eye(eqs.nq)[fixed]])
         missing = _undetermined(rows, names)
         if missing:
+            quaternion = [n for n in missing if n in _quaternion_names(eqs)]
+            note = (f" A quaternion's length is set by its initial values alone: give its four initial "
+                    f"components as a unit quaternion (oc.quaternion_from_rotation(R) makes one)") if quaternion else ""
             raise ModelError(
                 f"initial values of {', '.join(missing)} are not determined: no constraint's position form and "
                 f"no initial value fixes them, so IPOPT would have to choose them (where nothing depends on them "
                 f"it cannot, and wanders). Add them with problem.initial({{{', '.join(repr(n) + ': ...' for n in missing)}}}), "
                 f"give the constraints that hold them their position forms (add_constraint(..., position=phi)), "
-                f"or declare them free with problem.leave_free({missing})")
+                f"or declare them free with problem.leave_free({missing}).{note}")
     return q, dof
 
 
@@ -203,14 +211,57 @@ def _guess_at(problem, names: list[str], t: float) -> np.ndarray:
     return np.array(out)
 
 
-def _quaternion_rows(eqs):
-    """Rows fixing each unit quaternion's length (its scale is no degree of freedom)."""
+def _quaternion_spans(eqs) -> list[tuple[int, int]]:
+    """``(first, end)`` of each unit quaternion's entries in ``q``."""
     spans, start = [], 0
     for b in eqs.bodies:
         n = b.q.numel()
         if isinstance(b.rotation, UnitQuaternion):
             spans.append((start + 3, start + n))
         start += n
+    return spans
+
+
+def unit_quaternions(eqs, q: np.ndarray) -> None:
+    """In place: a quaternion of ``q`` left all zero (no value, no guess: the guess of an unset coordinate
+    is 0) becomes the identity, a rotation; the zero quaternion is none (its least-squares steps are NaN:
+    numpy's 'SVD did not converge' before this)."""
+    for a, b in _quaternion_spans(eqs):
+        if not np.linalg.norm(q[a:b]) > 1e-12:
+            q[a:b] = np.r_[1.0, np.zeros(b - a - 1)]
+
+
+def _quaternion_names(eqs) -> list[str]:
+    names = eqs.model.coordinate_names
+    return [names[i] for a, b in _quaternion_spans(eqs) for i in range(a, b)]
+
+
+def _check_quaternion_ends(problem) -> None:
+    """Given quaternions must be unit; all four final components over-determine one (its length
+    follows from the initial value, and collocation keeps it only to about 1e-4: IPOPT then runs to
+    its iteration limit; 3,000 iterations measured on a spherical pendulum)."""
+    eqs, names = problem.eqs, problem.eqs.model.coordinate_names
+    for a, b in _quaternion_spans(eqs):
+        comps = names[a:b]
+        for which, values in (("initial", problem.initial_values), ("final", problem.final_values)):
+            if not all(n in values for n in comps):
+                continue
+            q = np.array([values[n] for n in comps])
+            if abs(np.linalg.norm(q) - 1.0) > 1e-8:
+                raise ModelError(f"the {which} values of {', '.join(comps)} are not a unit quaternion (|q| = "
+                                 f"{np.linalg.norm(q):.10g}); divide them by their length")
+            if which == "final":
+                largest = comps[int(np.argmax(np.abs(q)))]
+                raise ModelError(
+                    f"the final values of all four of {', '.join(comps)} over-determine the quaternion: its length "
+                    f"follows from the initial values and the collocation keeps it only approximately, so four values "
+                    f"cannot all hold. Leave out the largest: del problem.final_values[{largest!r}] (the other three "
+                    f"fix the rotation)")
+
+
+def _quaternion_rows(eqs):
+    """Rows fixing each unit quaternion's length (its scale is no degree of freedom)."""
+    spans = _quaternion_spans(eqs)
 
     def rows(q):
         out = np.zeros((len(spans), eqs.nq))

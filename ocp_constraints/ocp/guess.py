@@ -20,6 +20,7 @@ import numpy as np
 from ..dynamics.inverse import InverseDynamics
 from ..errors import ModelError
 from ..mechanics.state import project_positions, project_speeds
+from .diagnostics import unit_quaternions
 
 
 
@@ -67,6 +68,7 @@ def _positions(tr, Q_guess: np.ndarray, t: np.ndarray, W: np.ndarray) -> np.ndar
         q = Q[:, i]
         if previous is not None:
             q[~own] = previous[~own]
+        unit_quaternions(e, q)     # an unset quaternion guesses 0, which is no rotation
         for _ in range(30 if parts is not None else 0):
             phi, J = (np.asarray(v, float) for v in parts(q, t[i], W[:, i]))
             if not np.all(np.isfinite(phi)) or np.abs(phi).max() < 1e-12:
