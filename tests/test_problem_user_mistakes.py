@@ -71,3 +71,14 @@ def test_a_valid_friction_cone_still_adds_its_two_rows():
     ocp = _disk_on_a_plane()
     ocp.friction_cone("contact", 0.0)
     assert [c.label for c in ocp.path_constraints] == ["contact normal force", "contact friction cone"]
+
+
+def test_a_misspelt_quantity_gets_the_closest_names_not_every_name():
+    """The message used to list all 18 names of each body (70 for a four-body model) and no suggestion."""
+    ocp = _disk_on_a_plane()
+    with pytest.raises(oc.ModelError, match=r"no quantity named 'axel' in model 'disk'; did you mean 'axle'\?") as info:
+        ocp.initial({"axel": 1.0})
+    assert "'disk.omega_y'" not in str(info.value)
+    with pytest.raises(oc.ModelError, match=r"did you mean 'disk.psi'"):
+        ocp.bound("disk.pis", 0.0, 1.0)
+    assert ocp.initial_values == {} and ocp.bounds == {}

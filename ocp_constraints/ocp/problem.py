@@ -101,7 +101,15 @@ class OptimalControlProblem:
     def quantity(self, name: str) -> ca.SX:
         """A named coordinate, rate, speed or input as an expression."""
         if name not in self._named:
-            raise ModelError(f"no quantity named '{name}' in model '{self.model.name}'; names: {sorted(self._named)}")
+            import difflib
+
+            close = difflib.get_close_matches(str(name), list(self._named), n=5, cutoff=0.6)
+            hint = f"; did you mean {', '.join(repr(c) for c in close)}?" if close else ""
+            # All 18 names per body (70 for a four-body model) hid the answer in the old message.
+            raise ModelError(f"no quantity named '{name}' in model '{self.model.name}'{hint} Quantities are "
+                             f"'<body>.<coordinate>' ({', '.join(self.model.coordinate_names[:6])}, ...), their "
+                             f"rates '<body>.<coordinate>_dot', speeds ('<body>.vbar_x', '<body>.omega_z', ...) "
+                             f"and inputs {list(self.model.inputs)}; bodies: {list(self.model.bodies)}")
         return self._named[name]
 
     def multiplier(self, constraint: str) -> ca.SX:
