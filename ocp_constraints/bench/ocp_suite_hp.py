@@ -22,7 +22,7 @@ Run::
 
     python -m ocp_constraints.bench.ocp_suite_hp --only acrobot four_bar cart_double_pendulum walker --tolerances 1e-4 1e-6 --uniform
 
-It prints one line per problem and tolerance and writes ``ocp_suite.hp.csv`` next to ``ocp_suite.csv``.
+It prints one line per problem and tolerance and writes ``ocp_suite_hp.csv`` next to ``ocp_suite.csv``.
 The tolerance is the refinement's (states in SI units, multipliers relative to the largest load).
 Times: wall and CPU (``time.process_time``) of the whole ``problem.solve`` call.
 """
@@ -164,7 +164,7 @@ def main(argv=None) -> int:
     ap.add_argument("--tolerances", nargs="+", type=float, default=[1e-4, 1e-6])
     ap.add_argument("--uniform", action="store_true", help="also the uniform Radau 7 meshes of the chain, cold")
     ap.add_argument("--suite", default="results/bench/ocp_suite.csv", help="the suite's results (converged references)")
-    ap.add_argument("--out", default=None, help="default: ocp_suite.hp.csv next to --suite")
+    ap.add_argument("--out", default=None, help="default: ocp_suite_hp.csv next to --suite")
     args = ap.parse_args(argv)
     with open(args.suite) as fh:
         suite = {r["problem"]: r for r in csv.DictReader(fh)}
@@ -173,7 +173,7 @@ def main(argv=None) -> int:
         sp = next(p for p in PROBLEMS if p.name == name)
         sweep = uniform_sweep(sp, suite[name]["reference_setting"], args.tolerances) if args.uniform else None
         rows += [run(sp, tol, suite[name], sweep) for tol in args.tolerances]
-    out = Path(args.out) if args.out else Path(args.suite).with_name("ocp_suite.hp.csv")
+    out = Path(args.out) if args.out else Path(args.suite).with_name("ocp_suite_hp.csv")
     with out.open("w", newline="") as fh:
         w = csv.DictWriter(fh, FIELDS)
         w.writeheader()
