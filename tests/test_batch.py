@@ -58,15 +58,20 @@ NUMBERS = ["t_reached", "max_constraint_residual.position", "max_constraint_resi
            "energy.relative_error"]
 
 
-def _write_spec(folder: Path, lengths=LENGTHS, angles=ANGLES, broken: bool = True) -> Path:
-    """12 pendulums (length x release angle) and, if ``broken``, a scene file that raises."""
+def _write_spec(folder: Path, lengths=LENGTHS, angles=ANGLES, broken: bool = True, t_final: str = "0.05") -> Path:
+    """12 pendulums (length x release angle) and, if ``broken``, a scene file that raises.
+    ``t_final``: simulated seconds per run (0.05: ~0.15 s of a forked run; 60: ~1 s)."""
     (folder / "scenes").mkdir(parents=True, exist_ok=True)
     (folder / "scenes" / "broken_scene.py").write_text('raise RuntimeError("boom")\n')
-    sim = json.dumps(SIM + ["--param", "length={L}", "--param", "angle0_deg={a}"])
+    sim = json.dumps(_sim(t_final) + ["--param", "length={L}", "--param", "angle0_deg={a}"])
     path = folder / "spec.toml"
     path.write_text(SPEC.format(sim=sim, lengths=json.dumps(lengths), angles=json.dumps(angles))
                     + (BROKEN if broken else ""))
     return path
+
+
+def _sim(t_final: str) -> list[str]:
+    return [t_final if a == "0.05" else a for a in SIM]
 
 
 def _cli(argv: list[str]) -> int:
@@ -244,7 +249,16 @@ def test_resume_runs_only_what_is_missing(local_batch, spec, tmp_path, capsys):
 
 @needs_dask
 def test_ctrl_c_leaves_a_consistent_table_and_resume_finishes(client, tmp_path, capsys):
-    spec = _write_spec(tmp_path, lengths=[1.1, 1.2], angles=[10, 20], broken=False)
+    # One short run and three of about 1 s each: whichever finishes first, Ctrl-C then finds at least
+    # one run unfinished however late the main thread sees it (a forked run of 0.05 s simulated time
+    # takes ~0.15 s, so four short runs could all end before the interrupt is handled).
+    long_sim = _sim("60")
+    spec = tmp_path / "spec.toml"
+    spec.write_text(SPEC.format(sim=json.dumps(SIM + ["--param", "length={L}"]), lengths="[1.1]", angles="[]")
+                    .replace("a = []\n", "")
+                    + SPEC.format(sim=json.dumps(long_sim + ["--param", "length={L}"]), lengths="[1.2, 1.3, 1.4]",
+                                  angles="[]").replace("a = []\n", ""))
+    assert len(load_spec(spec)) == 4
     out = tmp_path / "out"
 
     def interrupt_after_first_run():
@@ -330,7 +344,8 @@ def test_scheduler_address_gives_the_same_table(external, local_batch, spec, tmp
 def test_a_worker_killed_mid_batch_loses_nothing(external, tmp_path):
     """Runs last on this cluster: it kills one of its workers."""
     address, procs = external
-    spec = _write_spec(tmp_path, lengths=[0.7], angles=[11, 22, 33], broken=False)
+    # runs of ~1 s: short ones (~0.15 s forked) could all end before a busy worker is seen
+    spec = _write_spec(tmp_path, lengths=[0.7], angles=[11, 22, 33], broken=False, t_final="60")
     out = tmp_path / "out"
     with distributed.Client(address, timeout="60s") as c:
         names = {a: w["name"] for a, w in c.scheduler_info()["workers"].items()}
