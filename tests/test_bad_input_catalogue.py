@@ -338,6 +338,35 @@ _S = "Silent wrong before"
 _R = "Raw error before"
 _N = "Named before (kept)"
 
+def rod_ocp() -> "oc.OptimalControlProblem":
+    """A hinged rod with a motor, turned from rest at psi = 0 to rest at psi = 1 rad in 1 s."""
+    model, body, _ = hinged_rod()
+    model.add_torque("motor", body, ca.vertcat(0, 0, model.add_input("motor")))
+    problem = oc.OptimalControlProblem(model, t_final=1.0)
+    problem.initial({"rod.psi": 0.0, "rod.psi_dot": 0.0})
+    problem.final({"rod.psi": 1.0, "rod.psi_dot": 0.0})
+    return problem
+
+
+def with_rod_ocp(edit: Callable) -> Callable[[], object]:
+    return lambda: edit(rod_ocp())
+
+
+def quaternion_ball_ocp_three_components():
+    """A body on a quaternion on a hand-written ball joint, its initial orientation given by qx, qy, qz
+    only: |q| was free, and IPOPT returned 0.0002 for an optimum of 1.4952 (issue 13)."""
+    model = oc.Model("q", gravity=(0.0, 0.0, -9.81))
+    bob = model.add_body("bob", 1.0, np.diag([1 / 12, 1 / 12, 0.01]), rotation="quaternion")
+    P = bob.point("P", (0.0, 0.0, 0.5))
+    for k in range(3):
+        model.add_constraint(f"ball.v{k + 1}", ca.dot(ca.DM.eye(3)[:, k], P.v), joint="ball", position=P.position[k])
+    model.add_torque("motor", bob, ca.vertcat(*[model.add_input(f"t{c}") for c in "xyz"]))
+    problem = oc.OptimalControlProblem(model, t_final=2.0)
+    problem.initial({"bob.qx": 0.0, "bob.qy": 0.0, "bob.qz": 0.0, **{f"bob.omega_{c}": 0.0 for c in "xyz"}})
+    problem.minimize_effort()
+    return problem.solve(oc.Radau(5, degree=3))
+
+
 CATALOGUE: dict[str, tuple[str, str, list[Case]]] = {
     "state_off_constraints": ("simulate(eqs, q0, u0) from a state off the constraints", _S, [
         Case("simulate(eqs, q0 + 0.1, u0): coordinates off the hinge (pendulum)",
@@ -563,6 +592,20 @@ CATALOGUE: dict[str, tuple[str, str, list[Case]]] = {
         Case("a start at the 3-1-3 singularity (theta = 0)", lambda: (lambda m, b, A: hanging_state(m))(*rod(rotation="313")),
              E.SingularConfigurationError, ("body 'rod'", "quaternion")),
     ]),
+    "ocp_problem": ("an optimal-control problem written by a new user", _R, [
+        Case("subject_to(psi, 2.0, 1.0): a path constraint's bounds reversed", with_rod_ocp(
+            lambda p: p.subject_to(p.quantity("rod.psi"), 2.0, 1.0, "psi window")), E.ModelError,
+             ("path constraint 'psi window'", "swap")),
+        Case("subject_to(psi, nan, 1.0)", with_rod_ocp(
+            lambda p: p.subject_to(p.quantity("rod.psi"), float("nan"), 1.0, "psi window")), E.ModelError,
+             ("path constraint 'psi window'", "nan")),
+        Case("minimize_effort(['motor'], weight=nan)", with_rod_ocp(
+            lambda p: p.minimize_effort(["motor"], weight=float("nan"))), E.ModelError, ("'effort'", "finite")),
+        Case("initial({'rod.pssi': 0}): a misspelt quantity", with_rod_ocp(lambda p: p.initial({"rod.pssi": 0.0})),
+             E.ModelError, ("'rod.pssi'", "did you mean 'rod.psi'")),
+        Case("a quaternion body's initial orientation as qx, qy, qz only (was a silent wrong optimum)", quaternion_ball_ocp_three_components,
+             E.ModelError, ("bob.qw", "problem.initial")),
+    ]),
     "resources": ("a run larger than the machine", _S + " (grew without bound)", [
         Case("simulate(..., t_final=1e6)", lambda: simulate_scene_state("pendulum", t_final=1e6), E.ResourceLimitError,
              ("100,000,001 samples", "GB", "available", "dt >=")),
@@ -646,6 +689,11 @@ def test_command_line_exits_2_with_one_line_for_bad_input(case):
 
 @_cases("model_building")
 def test_model_building_errors_name_the_thing(case):
+    outcome(case)
+
+
+@_cases("ocp_problem")
+def test_a_new_users_ocp_mistakes_are_refused_naming_the_thing(case):
     outcome(case)
 
 
