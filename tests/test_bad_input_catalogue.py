@@ -348,6 +348,19 @@ def rod_ocp() -> "oc.OptimalControlProblem":
     return problem
 
 
+def rod_ocp_313() -> "oc.OptimalControlProblem":
+    """The rod of :func:`rod_ocp` on the default Euler sequence 3-1-3, whose psi and phi turn about one
+    axis at theta = 0: the hinge fixes their sum only, so phi is undetermined, and the message says why."""
+    model = oc.Model("m")
+    body = model.add_body("rod", 1.0, np.diag([0.1, 0.1, 0.1]))
+    joints.revolute(model, "hinge", body.point("A", [0.0, 0.5, 0.0]), axis=(0, 0, 1))
+    model.add_torque("motor", body, ca.vertcat(0, 0, model.add_input("motor")))
+    problem = oc.OptimalControlProblem(model, t_final=1.0)
+    problem.initial({"rod.psi": 0.0, "rod.psi_dot": 0.0})
+    problem.final({"rod.psi": 1.0, "rod.psi_dot": 0.0})
+    return problem
+
+
 def with_rod_ocp(edit: Callable) -> Callable[[], object]:
     return lambda: edit(rod_ocp())
 
@@ -603,6 +616,11 @@ CATALOGUE: dict[str, tuple[str, str, list[Case]]] = {
             lambda p: p.minimize_effort(["motor"], weight=float("nan"))), E.ModelError, ("'effort'", "finite")),
         Case("initial({'rod.pssi': 0}): a misspelt quantity", with_rod_ocp(lambda p: p.initial({"rod.pssi": 0.0})),
              E.ModelError, ("'rod.pssi'", "did you mean 'rod.psi'")),
+        Case("sol.sample('hinge@rod.F_x'): a joint load asked of sample()", lambda: (lambda p: (
+            p.minimize_effort(["motor"]), p.solve(oc.Radau(5, degree=3)).sample("hinge@rod.F_x")))(rod_ocp()),
+             E.ModelError, ("'hinge@rod.F_x'", ".loads()")),
+        Case("a rod on the default 3-1-3 angles hinged about E3, only psi given at t0 (theta = 0: singular)",
+             lambda: rod_ocp_313().solve(oc.Radau(5, degree=3)), E.ModelError, ("rod.phi", "'313' is singular", "quaternion")),
         Case("a quaternion body's initial orientation as qx, qy, qz only (was a silent wrong optimum)", quaternion_ball_ocp_three_components,
              E.ModelError, ("bob.qw", "problem.initial")),
     ]),

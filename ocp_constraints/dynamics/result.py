@@ -35,6 +35,9 @@ def unknown_name_message(name: str, names: list[str], what: str = "quantity", wh
     text = f"no {what} named '{name}' in {where}"
     if close:
         text += f"; did you mean {', '.join(repr(c) for c in close)}?"
+    if what == "quantity" and ("@" in name or name.rsplit(".", 1)[-1][:2] in ("F_", "M_")):
+        # a joint load asked of sample(): loads live in their own table (paper eq. 33 moves them)
+        text += " Joint loads (F_c at X_C, M_c, power) are the columns of .loads(), e.g. .loads()['<joint>.F_x']."
     if len(names) <= 40:
         return text + f" Available: {sorted(names)}"
     return text + f" ({len(names)} names; list them with .sample_names())"

@@ -21,9 +21,9 @@ from dataclasses import dataclass
 import numpy as np
 import scipy.linalg
 
-from ..errors import ModelError
+from ..errors import ModelError, SingularConfigurationError
 from ..mechanics.rotations import UnitQuaternion
-from ..mechanics.state import rate_rows
+from ..mechanics.state import check_regular, rate_rows
 
 POSITION_TOL = 1e-8    # m or rad: a boundary value that leaves |phi| above this violates the constraint
 VELOCITY_TOL = 1e-8    # m/s or rad/s
@@ -160,6 +160,7 @@ def _positions(problem, values: dict, t: float, which: str, free: set | None) ->
             quaternion = [n for n in missing if n in _quaternion_names(eqs)]
             note = (f" A quaternion's length is set by its initial values alone: give its four initial "
                     f"components as a unit quaternion (oc.quaternion_from_rotation(R) makes one)") if quaternion else ""
+            note += _singular_note(eqs, q, t)
             raise ModelError(
                 f"initial values of {', '.join(missing)} are not determined: no constraint's position form and "
                 f"no initial value fixes them, so IPOPT would have to choose them (where nothing depends on them "
@@ -167,6 +168,16 @@ def _positions(problem, values: dict, t: float, which: str, free: set | None) ->
                 f"give the constraints that hold them their position forms (add_constraint(..., position=phi)), "
                 f"or declare them free with problem.leave_free({missing}).{note}")
     return q, dof
+
+
+def _singular_note(eqs, q: np.ndarray, t: float) -> str:
+    """Why angles can be undetermined although the joints fix the orientation: an Euler sequence at its
+    singularity, where two of its angles turn about one axis (3-1-3 at theta = 0, a body's default)."""
+    try:
+        check_regular(eqs, q, f"at t = {t:g} s")
+    except SingularConfigurationError as exc:
+        return f" Note: {exc}"
+    return ""
 
 
 def _speeds(problem, q: np.ndarray, values: dict, t: float, which: str, free: set | None) -> int:
