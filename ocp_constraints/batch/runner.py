@@ -14,6 +14,7 @@ without Dask's diagnostics that cost CPU while runs compute (:data:`QUIET_CLUSTE
 """
 from __future__ import annotations
 
+import importlib.util
 import logging
 import os
 import re
@@ -106,7 +107,9 @@ def run_batch(specs, out, client=None, workers: int = 2, resume: bool = False, p
         except Exception:   # this scheduler serves no dashboard
             link = None
         if link and progress is not False:
-            print(f"Dask dashboard: {link}", file=sys.stderr)
+            # Without bokeh, Dask serves only its /info pages there and a page asking for bokeh
+            plots = "" if importlib.util.find_spec("bokeh") else ' (its plots need bokeh: pip install "bokeh>=3.1.0")'
+            print(f"Dask dashboard: {link}{plots}", file=sys.stderr)
         for i in todo:
             run, run_dir = runs[i], out / "runs" / runs[i].id
             fut = client.submit(execute_run, run.command_args(run_dir), str(run_dir), run.cwd, token,
