@@ -66,7 +66,7 @@ class OCPSolveError(OcpConstraintsError, RuntimeError):
         self.solution = solution
 
     def __str__(self) -> str:
-        # Read when printed: a joint-coordinate solve puts the bodies' solution in after raising.
+        # Read when printed (the violations cost evaluations); a caller may replace .solution after raising.
         cached = self.__dict__.get("_note")
         if cached is None or cached[0] is not self.solution:
             cached = self.__dict__["_note"] = (self.solution, _violation_note(self.solution))

@@ -50,7 +50,7 @@ from .nlp_assembly import element
 from .solution import OCPSolution
 from .transcription import Transcription
 from ..dynamics.trajectory import Trajectory
-from ..errors import ModelError, OCPSolveError
+from ..errors import ModelError
 
 SLACKS = ("mesh", "points")
 
@@ -213,30 +213,20 @@ class CondensedTranscription(Transcription):
                                np.array([t_final] if lay.free_time else [])])
 
     def accelerations(self, X: np.ndarray, A: np.ndarray, t_final: float) -> np.ndarray:
-        return A      # placeholders; :meth:`solve` puts the KKT's in
+        return A      # placeholders; :meth:`completed` puts the KKT's in
 
     # -- solving -----------------------------------------------------------------------------------------
-    def solve(self, ipopt_options: dict, warm_start=None, progress: bool | None = None) -> OCPSolution:
-        """Solve the condensed NLP; the solution (or a failed solve's last iterate) with ``u'`` and every
-        multiplier at every point, from the KKT system and the slacks."""
-        try:
-            solution = super().solve(ipopt_options, warm_start, progress)
-        except OCPSolveError as err:
-            err.solution = self.full_solution(err.solution)
-            raise
-        return self.full_solution(solution)
-
-    def full_solution(self, sol: OCPSolution) -> OCPSolution:
-        """``u'`` and ``lambda`` at every point from the states, inputs and slacks of ``sol``."""
+    def completed(self, sol: OCPSolution) -> OCPSolution:
+        """``u'`` and ``lambda`` at every point from the states, inputs and slacks of ``sol`` (also of a
+        failed solve's last iterate)."""
         e, P = self.eqs, len(sol.t)
         point = self.__dict__.setdefault("_numeric", self._point_functions())
         zero = np.zeros((e.phi.numel(), P))
         udot = np.asarray(point["rates"].map(P)(sol.X, sol.inputs, sol.lam, zero, sol.t[None, :])[1]).reshape(e.nu, P)
         lam = np.asarray(point["multipliers"].map(P)(sol.X, sol.inputs, sol.lam, sol.t[None, :])).reshape(e.nc, P)
         traj = Trajectory(e, sol.success, sol.status)
-        for i in range(P):
-            traj.append(sol.t[i], sol.X[: e.nq, i], sol.X[e.nq :, i], udot[:, i], lam[:, i], sol.inputs[:, i],
-                        np.zeros(e.nc), 0.0, 0.0)
+        traj.extend(sol.t, sol.X[: e.nq].T, sol.X[e.nq :].T, udot.T, lam.T, sol.inputs.T, np.zeros((P, e.nc)),
+                    np.zeros(P), np.zeros(P), np.zeros(P))     # all points in one block
         return OCPSolution(self, sol.decision_vector, sol.t, sol.X, udot, lam, sol.inputs, sol.t_final,
                            sol.objective, sol.stats, sol.wall_time, traj)
 

@@ -24,7 +24,7 @@ from types import SimpleNamespace
 import casadi as ca
 import numpy as np
 
-from ..errors import ModelError, OCPSolveError
+from ..errors import ModelError
 from ..mechanics.generalized import JointCoordinates
 from .bounds import _keep_away_from_euler_singularities
 from .guess import consistent_guess
@@ -197,18 +197,9 @@ class JointTranscription(Transcription):
         return self._pack(np.vstack([p, U]), L[r.rest], W, t_final, A=A)
 
     # -- solving ---------------------------------------------------------------------------------
-    def solve(self, ipopt_options: dict, warm_start=None, progress: bool | None = None) -> OCPSolution:
-        """Solve the joint-coordinate NLP; the solution (or the last iterate of a failed solve) in
-        the bodies' coordinates, with every multiplier."""
-        try:
-            solution = super().solve(ipopt_options, warm_start, progress)
-        except OCPSolveError as err:
-            err.solution = self.maximal_solution(err.solution)
-            raise
-        return self.maximal_solution(solution)
-
-    def maximal_solution(self, sol: OCPSolution) -> OCPSolution:
-        """The bodies' coordinates, speeds, accelerations and every multiplier at each point."""
+    def completed(self, sol: OCPSolution) -> OCPSolution:
+        """The bodies' coordinates, speeds, accelerations and every multiplier at each point (also of a
+        failed solve's last iterate)."""
         r, full = self.reduced, self.user_problem.eqs
         P = len(sol.t)
         q, u, udot, lam = (np.asarray(v).reshape(-1, P) for v in r.maximal_function.map(P)(

@@ -354,6 +354,11 @@ class Transcription:
         return out
 
     # -- solve ----------------------------------------------------------------------------------
+    def completed(self, sol: OCPSolution) -> OCPSolution:
+        """The solution as users query it, from the NLP's own (here the same; a transcription whose NLP
+        leaves out coordinates or multipliers computes them here, also for a failed solve's last iterate)."""
+        return sol
+
     def solve(self, ipopt_options: dict, warm_start=None, progress: bool | None = None) -> OCPSolution:
         opts = {**DEFAULT_IPOPT, **ipopt_options}
         started = time.perf_counter()
@@ -374,8 +379,9 @@ class Transcription:
         stats = dict(self._solver.stats())
         if self._monitor.stop_reason:
             stats.update(success=False, return_status=f"interrupted by {self._monitor.stop_reason}")
-        solution = OCPSolution.from_vector(self, np.asarray(res["x"]).ravel(), stats, float(res["f"]),
-                                           {"transcription": self.build_time, "solver_setup": setup, "solve": solve_time})
+        solution = self.completed(OCPSolution.from_vector(
+            self, np.asarray(res["x"]).ravel(), stats, float(res["f"]),
+            {"transcription": self.build_time, "solver_setup": setup, "solve": solve_time}))
         if not stats.get("success", False):
             raise OCPSolveError(
                 f"IPOPT did not solve '{self.problem.model.name}' with {self.scheme.label} "
