@@ -1,6 +1,7 @@
 """A quaternion body's boundary values in an optimal-control problem: the pre-solve check names what a
-newcomer gets wrong, instead of a numpy 'SVD did not converge', a silently rescaled quaternion, or IPOPT
-running to its iteration limit (issue 13: problems not in the suite)."""
+newcomer gets wrong, instead of a numpy 'SVD did not converge'; the NLP holds each quaternion's length,
+so three or four given components solve (before, a silently rescaled quaternion or IPOPT running to its
+iteration limit; issue 13: problems not in the suite)."""
 from __future__ import annotations
 
 import casadi as ca
@@ -8,15 +9,18 @@ import numpy as np
 import pytest
 
 import ocp_constraints as oc
+from scipy.optimize import least_squares
+
+from ocp_constraints.mechanics.rotations import EulerSequence, UnitQuaternion
 from ocp_constraints.ocp.diagnostics import check_problem
 
 TARGET = (0.8686198214082874, 0.35438937171419277, 0.2968801535759501, 0.1782412788480126)   # unit
 
 
-def _spherical_pendulum():
+def _spherical_pendulum(rotation: str = "quaternion"):
     """A rod on a hand-written ball joint at its top end, three torques, rest to rest."""
     model = oc.Model("sph_q", gravity=(0.0, 0.0, -9.81))
-    bob = model.add_body("bob", 1.0, np.diag([1 / 12, 1 / 12, 0.01]), rotation="quaternion")
+    bob = model.add_body("bob", 1.0, np.diag([1 / 12, 1 / 12, 0.01]), rotation=rotation)
     P = bob.point("P", (0.0, 0.0, 0.5))
     for k in range(3):
         model.add_constraint(f"ball.v{k + 1}", ca.dot(ca.DM.eye(3)[:, k], P.v), joint="ball", position=P.position[k])
@@ -35,23 +39,43 @@ def test_no_initial_orientation_of_a_quaternion_body_is_named_not_a_numpy_error(
         check_problem(ocp, oc.Radau(4, degree=3))
 
 
-def test_a_quaternion_whose_length_no_initial_value_fixes_is_named():
-    """qx = qy = qz = 0 at t0 leaves qw's sign and the length free: IPOPT took qw = 84.6 (a near-identity
-    rotation for any final qx, qy, qz: objective 0.0002 instead of 1.495) before this check."""
+def test_three_initial_components_fix_the_quaternion_with_its_length():
+    """qx = qy = qz = 0 at t0: the NLP's row |q|^2 = 1 fixes qw up to its sign (before that row, IPOPT took
+    qw = 84.6, a near-identity rotation for any final orientation: objective 0.0002 instead of 1.495)."""
     ocp = _spherical_pendulum()
     ocp.initial({"bob.qx": 0.0, "bob.qy": 0.0, "bob.qz": 0.0})
-    ocp.final(dict(zip(("bob.qx", "bob.qy", "bob.qz"), TARGET[1:])))
-    with pytest.raises(oc.ModelError, match=r"initial values of bob\.qw are not determined.*length is set by its "
-                                            r"initial values"):
-        check_problem(ocp, oc.Radau(4, degree=3))
+    d = check_problem(ocp, oc.Radau(4, degree=3))
+    assert (d.position_dof, d.speed_dof) == (3, 3)
 
 
-def test_four_final_quaternion_components_are_refused_naming_the_one_to_leave_out():
+def _euler_321_reference(mesh) -> float:
+    """The same rest-to-rest turn with the body on 3-2-1 Euler angles (another parameterization, another
+    NLP): the final angles are those whose rotation tensor is the target quaternion's."""
+    seq = EulerSequence("321")
+    a = ca.SX.sym("a", 3)
+    residual = ca.Function("R", [a], [ca.vec(seq.rotation(a) - ca.DM(UnitQuaternion().rotation(ca.DM(TARGET))))])
+    angles = least_squares(lambda x: np.asarray(residual(x)).ravel(), np.zeros(3), xtol=1e-15, ftol=1e-15).x
+    assert np.abs(np.asarray(residual(angles))).max() < 1e-12
+    ocp = _spherical_pendulum(rotation="321")
+    ocp.initial({"bob.psi": 0.0, "bob.theta": 0.0, "bob.phi": 0.0})
+    ocp.final(dict(zip(("bob.psi", "bob.theta", "bob.phi"), angles)))
+    return ocp.solve(mesh).objective
+
+
+def test_a_turn_between_quaternions_given_by_three_and_four_components_reaches_the_euler_angle_optimum():
+    """Four final components used to over-determine the quaternion (its length drifts under collocation:
+    3,000 IPOPT iterations); with its length a row of the NLP at every point (and a slack in its
+    kinematics), three initial and four final components solve, |q| = 1 throughout, and the optimum is
+    the one the same problem has on Euler angles."""
+    mesh = oc.Radau(5, degree=7)
     ocp = _spherical_pendulum()
-    ocp.initial({"bob.qw": 1.0, "bob.qx": 0.0, "bob.qy": 0.0, "bob.qz": 0.0})
+    ocp.initial({"bob.qx": 0.0, "bob.qy": 0.0, "bob.qz": 0.0})
     ocp.final(dict(zip(("bob.qw", "bob.qx", "bob.qy", "bob.qz"), TARGET)))
-    with pytest.raises(oc.ModelError, match=r"final values of all four .* over-determine.*'bob\.qw'"):
-        check_problem(ocp, oc.Radau(4, degree=3))
+    sol = ocp.solve(mesh)
+    q = np.vstack([sol.sample(f"bob.q{c}") for c in "wxyz"])
+    assert np.abs(np.linalg.norm(q, axis=0) - 1.0).max() < 1e-9
+    assert abs(q[0, 0]) == pytest.approx(1.0, abs=1e-9)
+    assert sol.objective == pytest.approx(_euler_321_reference(mesh), rel=1e-6)     # measured 2e-8 apart
 
 
 def test_a_non_unit_initial_quaternion_is_refused():

@@ -23,6 +23,19 @@ from .bodies import Point
 from .constraints import equipollent_moment
 from ..errors import ModelError, RedundantConstraintsError
 from .model import Model
+from .rotations import UnitQuaternion
+
+
+def unit_lengths(bodies) -> ca.SX:
+    """``q . q - 1`` of the rotation parameters of every unit-quaternion body among ``bodies``.
+
+    No constraint of the model: ``Q(q)`` divides by ``q . q`` (:class:`~.rotations.UnitQuaternion`), so the
+    equations hold at any length and the kinematics ``q' = 1/2 Q(q) omega`` keep the length in exact time.
+    A discretization keeps it only to its error, and an NLP whose boundary values leave it open scales it
+    freely (a spherical pendulum's optimum 1.4952 returned as 0.0002 with ``|q| = 85``): a transcription
+    holds it as a position-level row with its own slack, as it holds ``phi``."""
+    rows = [ca.sumsqr(b.q[3:]) - 1.0 for b in bodies if isinstance(b.rotation, UnitQuaternion)]
+    return ca.vertcat(*rows) if rows else ca.SX(0, 1)
 
 
 @dataclass(frozen=True)
@@ -40,7 +53,8 @@ class SystemEquations:
     Attributes (SX): ``q, u, t, inputs``; ``qdot`` (kinematics ``q' = N(q) u``);
     ``mass_matrix``; ``forces`` (applied + gyroscopic); ``G``, ``e`` (constraints,
     ``G u + e = 0``); ``gamma`` (so that ``d(pi)/dt = G u' + gamma``); ``phi`` (the
-    position forms of holonomic constraints); ``energy``.
+    position forms of holonomic constraints); ``position_rows`` (``phi`` and each unit
+    quaternion's length, :func:`unit_lengths`: what a transcription holds at its points); ``energy``.
     """
 
     def __init__(self, model: Model):
@@ -85,6 +99,7 @@ class SystemEquations:
             self.e = self.gamma = ca.SX(0, 1)
         self.holonomic = [i for i, c in enumerate(self.constraints) if c.position is not None]
         self.phi = ca.vertcat(*[self.constraints[i].position for i in self.holonomic]) if self.holonomic else ca.SX(0, 1)
+        self.position_rows = ca.vertcat(self.phi, unit_lengths(bodies))
         self.applied_power = self._applied_power()
         g = ca.DM(model.gravity)
         self.kinetic_energy = sum(b.kinetic_energy() for b in bodies)

@@ -34,7 +34,7 @@ import casadi as ca
 import numpy as np
 
 from ..errors import ModelError
-from .equations import SystemEquations
+from .equations import SystemEquations, unit_lengths
 from .joint_maps import KINDS, axis_rotation
 from .rotations import EulerSequence, quaternion_from_rotation
 
@@ -70,6 +70,8 @@ class JointCoordinates:
         self.holonomic = [i for i, k in enumerate(rows) if k in eqs.holonomic]
         kept = [eqs.holonomic.index(k) for k in rows if k in eqs.holonomic]
         self.phi = sub(eqs.phi[kept]) if kept else ca.SX(0, 1)
+        # A body on a mapped joint has a composed unit quaternion; one on none keeps its own (and its length row).
+        self.position_rows = ca.vertcat(self.phi, unit_lengths([b for b in eqs.bodies if b.name not in self.maps]))
         pi = self.G @ self.u + self.e
         self.gamma = ca.jtimes(pi, self.q, self.qdot) + ca.jacobian(pi, self.t)
         if self.inputs.numel() and self.nc:

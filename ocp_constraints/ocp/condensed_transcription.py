@@ -129,11 +129,11 @@ class CondensedTranscription(Transcription):
         out = super()._point_functions()
         e, k = self.eqs, self.kkt
         x = ca.vertcat(e.q, e.u)
-        s, gam = ca.SX.sym("s", e.nc), ca.SX.sym("gamma", e.phi.numel())
+        s, gam = ca.SX.sym("s", e.nc), ca.SX.sym("gamma", e.position_rows.numel())
         args = [x, e.inputs, s, gam, e.t]
         out["rates"] = ca.Function("rates", args, [out["kinematics"](x, gam, e.t), k.a + k.da @ s])
         out["multipliers"] = ca.Function("multipliers", [x, e.inputs, s, e.t], [k.lam + k.dlam @ s])
-        out["constraints"] = ca.Function("constraints", [x, e.t], [ca.vertcat(e.G @ e.u + e.e, e.phi)])
+        out["constraints"] = ca.Function("constraints", [x, e.t], [ca.vertcat(e.G @ e.u + e.e, e.position_rows)])
         return out
 
     def _point_elements(self, s) -> list:
@@ -221,7 +221,7 @@ class CondensedTranscription(Transcription):
         failed solve's last iterate)."""
         e, P = self.eqs, len(sol.t)
         point = self.__dict__.setdefault("_numeric", self._point_functions())
-        zero = np.zeros((e.phi.numel(), P))
+        zero = np.zeros((e.position_rows.numel(), P))
         udot = np.asarray(point["rates"].map(P)(sol.X, sol.inputs, sol.lam, zero, sol.t[None, :])[1]).reshape(e.nu, P)
         lam = np.asarray(point["multipliers"].map(P)(sol.X, sol.inputs, sol.lam, sol.t[None, :])).reshape(e.nc, P)
         traj = Trajectory(e, sol.success, sol.status)

@@ -70,7 +70,7 @@ def nlp_variables(problem, method) -> int:
     e = problem.eqs
     P = method.point_count
     n_acc = 1 if method.accelerations_from_speeds is not None else P
-    return ((e.nq + e.nu + e.nc + e.inputs.numel()) * P + e.nu * n_acc + e.phi.numel() * (P - 1)
+    return ((e.nq + e.nu + e.nc + e.inputs.numel()) * P + e.nu * n_acc + e.position_rows.numel() * (P - 1)
             + int(problem.t_final_bounds is not None))
 
 
@@ -151,15 +151,14 @@ def _positions(problem, values: dict, t: float, which: str, free: set | None) ->
     dof = eqs.nq - _rank(np.vstack([J, norm_rows(q)]))
     if free is not None:
         fixed = [i for i, n in enumerate(names) if n in values or n in free]
-        # No norm rows here: the NLP has no row for a quaternion's length, which the kinematics carry from
-        # its initial value; initial values that leave the length free let IPOPT scale it (qw = 84.6
-        # and an objective 7,000 times too small, measured on a spherical pendulum).
-        rows = np.vstack([J, np.eye(eqs.nq)[fixed]])
+        # The NLP holds each quaternion's length at every point (SystemEquations.position_rows): three of
+        # its components fix the fourth up to its sign, as the rotation needs.
+        rows = np.vstack([J, norm_rows(q), np.eye(eqs.nq)[fixed]])
         missing = _undetermined(rows, names)
         if missing:
             quaternion = [n for n in missing if n in _quaternion_names(eqs)]
-            note = (f" A quaternion's length is set by its initial values alone: give its four initial "
-                    f"components as a unit quaternion (oc.quaternion_from_rotation(R) makes one)") if quaternion else ""
+            note = (f" A quaternion body's orientation needs three of its components or all four as a unit "
+                    f"quaternion (oc.quaternion_from_rotation(R) makes one)") if quaternion else ""
             note += _singular_note(eqs, q, t)
             raise ModelError(
                 f"initial values of {', '.join(missing)} are not determined: no constraint's position form and "
@@ -248,9 +247,7 @@ def _quaternion_names(eqs) -> list[str]:
 
 
 def _check_quaternion_ends(problem) -> None:
-    """Given quaternions must be unit; all four final components over-determine one (its length
-    follows from the initial value, and collocation keeps it only to about 1e-4: IPOPT then runs to
-    its iteration limit; 3,000 iterations measured on a spherical pendulum)."""
+    """Given quaternions must be unit (the NLP holds their length at one: a longer one has no solution)."""
     eqs, names = problem.eqs, problem.eqs.model.coordinate_names
     for a, b in _quaternion_spans(eqs):
         comps = names[a:b]
@@ -261,13 +258,6 @@ def _check_quaternion_ends(problem) -> None:
             if abs(np.linalg.norm(q) - 1.0) > 1e-8:
                 raise ModelError(f"the {which} values of {', '.join(comps)} are not a unit quaternion (|q| = "
                                  f"{np.linalg.norm(q):.10g}); divide them by their length")
-            if which == "final":
-                largest = comps[int(np.argmax(np.abs(q)))]
-                raise ModelError(
-                    f"the final values of all four of {', '.join(comps)} over-determine the quaternion: its length "
-                    f"follows from the initial values and the collocation keeps it only approximately, so four values "
-                    f"cannot all hold. Leave out the largest: del problem.final_values[{largest!r}] (the other three "
-                    f"fix the rotation)")
 
 
 def _quaternion_rows(eqs):

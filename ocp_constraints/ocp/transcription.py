@@ -9,7 +9,8 @@ rates are expressions, not variables); constraints at every point: the implicit 
     M(q) a = f(q, u, t, w) + G^T lambda,
 
 the velocity-level constraints ``G u + e = 0`` and the position-level forms
-``phi(q, t) = 0``. Why this choice: imposing both ``phi = 0`` and ``G u + e = 0`` makes
+``phi(q, t) = 0`` (with each unit quaternion's ``|q|^2 = 1``: the equations hold at any
+length, :func:`~ocp_constraints.mechanics.equations.unit_lengths`). Why this choice: imposing both ``phi = 0`` and ``G u + e = 0`` makes
 the solution drift-free at every point (the contract of DESIGN.md); the slack
 ``gamma`` absorbs the discretization's mismatch between the two (it vanishes as the
 mesh is refined), so the NLP stays consistent, as in Moco. At ``t_0`` the
@@ -69,7 +70,7 @@ class Transcription:
         # after t0 are expressions, not variables: a smaller KKT system, the same NLP.
         self.from_speeds = scheme.accelerations_from_speeds is not None
         n_acc = 1 if self.from_speeds else P
-        self.layout = Layout(P, nx, e.nu, e.nc, e.phi.numel(), n_in, problem.t_final_bounds is not None, n_acc)
+        self.layout = Layout(P, nx, e.nu, e.nc, e.position_rows.numel(), n_in, problem.t_final_bounds is not None, n_acc)
         mesh = scheme.mesh_fractions
         # Normalized time of every point, and its quadrature weight (times the horizon).
         frac = np.zeros(P)
@@ -235,14 +236,16 @@ class Transcription:
         x = ca.vertcat(e.q, e.u)
         d = ca.SX.sym("d", x.numel())
         a = ca.SX.sym("a", e.nu)
-        gam = ca.SX.sym("gamma", e.phi.numel())
+        # Position rows: the constraints' position forms and each unit quaternion's length (SystemEquations).
+        positions = e.position_rows
+        gam = ca.SX.sym("gamma", positions.numel())
         lam = pr.lam
-        phi_q = ca.jacobian(e.phi, e.q)
-        kin = e.qdot + (phi_q.T @ gam if e.phi.numel() else 0)
+        phi_q = ca.jacobian(positions, e.q)
+        kin = e.qdot + (phi_q.T @ gam if positions.numel() else 0)
         dyn = e.mass_matrix @ a - e.forces - e.G.T @ lam
         vel = e.G @ e.u + e.e
         out = {"kinematics": ca.Function("kinematics", [x, gam, e.t], [kin]),
-               "residuals": ca.Function("residuals", [x, a, lam, e.inputs, e.t], [dyn, vel, e.phi])}
+               "residuals": ca.Function("residuals", [x, a, lam, e.inputs, e.t], [dyn, vel, positions])}
         pi = e.G @ e.u + e.e
         # d(pi)/dt at t0 with q' = D_q, u' = D_u; rows where an input enters are left out
         # (the input's rate there is the optimizer's free choice).
