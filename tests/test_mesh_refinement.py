@@ -53,6 +53,10 @@ def test_estimate_brackets_the_true_error_of_the_swing_up(coordinates, nlp, pont
 
     mr = sol.mesh_refinement
     assert mr["met"] and len(mr["history"]) == mr["refinements"] + 1 >= 2
+    if nlp == "joint":
+        # Here the last mesh is judged against the pilot, finer everywhere (no companion solved): the
+        # bracket below checks that estimate (maximal coordinates: the pilot is taken, its companion solved).
+        assert "judged_against" in mr["history"][-1] and mr["history"][-1]["solves"] == 1
     true = _errors(sol, truth)
     for q in ("states", "multipliers"):
         assert true[q] <= 1e-4
@@ -172,3 +176,19 @@ def test_unresolved_step_halves_the_companion_and_rough_needs_a_non_smooth_inter
     new, _ = refine(scheme, np.array([50.0, 50.0]), parents, nonsmooth=np.array([True, False]))
     assert list(new.mesh_fractions) == [0.0, 0.25, 0.5, 0.75, 1.0]
     assert list(new.points_per_interval - 1) == [MIN_DEGREE, MIN_DEGREE, MAX_DEGREE, MAX_DEGREE]
+
+
+def test_a_solution_judges_another_mesh_only_where_it_halves_each_interval_or_raises_its_degree_by_two():
+    """finer(), by hand: the pilot (every interval halved at degree 7) judges a mesh of degrees 3 and 6;
+    the same intervals judge only at two degrees more; a cut at 0.3 of a 0.5 interval is no half (at one degree
+    more); equal
+    intervals at equal degrees, or a mesh point missing, never judge."""
+    from ocp_constraints.ocp.mesh_refinement import finer, pilot_of
+
+    coarse = Radau(mesh=(0.0, 0.5, 1.0), degrees=(3, 6))
+    assert finer(coarse, pilot_of(coarse))
+    assert finer(coarse, Radau(mesh=(0.0, 0.5, 1.0), degrees=(5, 8)))
+    assert not finer(coarse, Radau(mesh=(0.0, 0.5, 1.0), degrees=(5, 7)))
+    assert not finer(coarse, Radau(mesh=(0.0, 0.3, 0.5, 1.0), degrees=(4, 4, 8)))
+    assert not finer(Radau(mesh=(0.0, 0.25, 0.5, 1.0), degrees=(7, 7, 7)), pilot_of(coarse))
+    assert not finer(coarse, Radau(mesh=(0.0, 1.0), degrees=(9,)))

@@ -194,7 +194,7 @@ def swing_up_table(runs: int, log=print, coordinates: str = "auto") -> tuple[lis
         rows.append({"tolerance": tol, "met_estimate": mr["met"], "true": err, "estimate": mr["estimate"],
                      "refinements": mr["refinements"], "intervals": len(mr["degrees"]), "points": sol.transcription.scheme.point_count,
                      "degrees": f"{min(mr['degrees'])}-{max(mr['degrees'])}", "wall_s": wall, "cpu_s": cpu, "best": best,
-                     "paired": paired, "coordinates": mr["coordinates"], "solves": sum(2 - bool(h.get("solved_as_companion")) for h in mr["history"])})
+                     "paired": paired, "coordinates": mr["coordinates"], "solves": sum(h["solves"] for h in mr["history"])})
         log(f"  tol {tol:g}: true {_gated(err):.1e} estimate {max(mr['estimate'][q] for q in ('states', 'multipliers')):.1e} "
             f"{wall:.2f} s wall {cpu:.2f} s cpu; best fixed {best and best['setting']}; interleaved {paired}")
     return rows, fixed

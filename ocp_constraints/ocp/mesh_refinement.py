@@ -47,11 +47,11 @@ import numpy as np
 
 from ..errors import ModelError, OCPSolveError
 from .error_estimate import DECAY_LIMIT, UNRESOLVED_OBJECTIVE, UNRESOLVED_STATE, estimate_error, legendre_decay
+from .mesh_companions import (COMPANION_EXTRA, MAX_DEGREE, _degrees, _ends, companion_of, covered, finer,  # noqa: F401
+                              finer_at_hand, pilot_of, uniform_step)
 from .schemes import Radau
 
 MIN_DEGREE = 3
-MAX_DEGREE = 7          # the companion then reaches Radau's highest degree, 9
-COMPANION_EXTRA = 2
 MAX_REFINEMENTS = 10
 # The pilot replaces the next mesh (one solve fewer) only if it has at most this many times its points:
 # its companion, and the solution returned, are then that much larger. Where solve time grows like
@@ -91,48 +91,6 @@ def start_scheme(method) -> Radau:
         raise ModelError(f"mesh refinement to a tolerance raises Radau degrees and splits Radau intervals; "
                          f"{method.label} has a fixed order: pass Radau(N, degree=d) as the starting mesh, or none")
     return method
-
-
-def _degrees(scheme: Radau) -> np.ndarray:
-    return scheme.points_per_interval - 1
-
-
-def companion_of(scheme: Radau) -> Radau:
-    """The same mesh with every degree raised by :data:`COMPANION_EXTRA` (at most 9)."""
-    return Radau(mesh=tuple(scheme.mesh_fractions),
-                 degrees=tuple(int(min(d + COMPANION_EXTRA, 9)) for d in _degrees(scheme)))
-
-
-def pilot_of(scheme: Radau) -> Radau:
-    """The first mesh's companion: every interval halved, at :data:`MAX_DEGREE`, the finest mesh one
-    refinement of it can ask for without splitting further. Where the next mesh asks for no more
-    (:func:`covered`), the pilot's solution *is* the next solution, and a refinement needs three
-    solves, not four (the solves' fixed costs, transcription and IPOPT setup, are most of a solve
-    at these sizes: swing-up in joint coordinates, 54-62% of the refinement's CPU in transcriptions)."""
-    mesh = scheme.mesh_fractions
-    halves = np.sort(np.concatenate([mesh, (mesh[:-1] + mesh[1:]) / 2]))
-    return Radau(mesh=tuple(float(m) for m in halves), degrees=(MAX_DEGREE,) * (2 * scheme.intervals))
-
-
-def covered(scheme: Radau, by: Radau) -> bool:
-    """Whether ``by`` is at least as fine as ``scheme`` everywhere: its mesh holds every mesh point of
-    ``scheme`` and each of its intervals has at least the degree of the interval of ``scheme`` it lies in."""
-    ours = {_ends(m, m)[0] for m in by.mesh_fractions}
-    if not all(_ends(m, m)[0] in ours for m in scheme.mesh_fractions):
-        return False
-    mid = (by.mesh_fractions[:-1] + by.mesh_fractions[1:]) / 2
-    k = np.clip(np.searchsorted(scheme.mesh_fractions, mid, side="right") - 1, 0, scheme.intervals - 1)
-    return bool(np.all(_degrees(by) >= _degrees(scheme)[k]))
-
-
-def uniform_step(companion: Radau) -> Radau:
-    """The next mesh where the solution is not yet resolved (:func:`.error_estimate.resolution`): the
-    companion's mesh (the finer of the two just solved), every interval halved, at its degrees up to
-    :data:`MAX_DEGREE`. Uniform, because an unresolved comparison does not say where the error is."""
-    mesh = companion.mesh_fractions
-    halves = np.sort(np.concatenate([mesh, (mesh[:-1] + mesh[1:]) / 2]))
-    degrees = np.repeat(np.minimum(_degrees(companion), MAX_DEGREE), 2)
-    return Radau(mesh=tuple(float(m) for m in halves), degrees=tuple(int(d) for d in degrees))
 
 
 def refine(scheme: Radau, ratio: np.ndarray, parents: dict | None = None,
@@ -180,10 +138,6 @@ def refine(scheme: Radau, ratio: np.ndarray, parents: dict | None = None,
         new_degrees.extend([degree] * len(pieces))
     new_mesh[-1] = 1.0
     return Radau(mesh=tuple(float(m) for m in new_mesh), degrees=tuple(new_degrees)), born
-
-
-def _ends(a: float, b: float) -> tuple[float, float]:
-    return round(float(a), 13), round(float(b), 13)
 
 
 def _build(problem, scheme: Radau, first):
@@ -260,6 +214,7 @@ def solve_to_tolerance(problem, tolerance, method=None, ipopt_options: dict | No
     record = {"tolerance": tol, "quantities_refined_on": list(GATED), "met": False, "history": history,
               "coordinates": problem.nlp_coordinates}
     parents, warm, total, total_cpu, first, solved = None, warm_start, 0.0, 0.0, None, None
+    at_hand: list = []      # solutions solved so far: a finer one may judge a later mesh (:func:`finer`)
     for r in range(max_refinements + 1):
         entry = {"refinement": r, "intervals": scheme.intervals, "points": scheme.point_count,
                  "mesh": [float(m) for m in scheme.mesh_fractions], "degrees": [int(d) for d in _degrees(scheme)]}
@@ -273,8 +228,18 @@ def solve_to_tolerance(problem, tolerance, method=None, ipopt_options: dict | No
                                                  warm, progress, first)
             first = first or sol.transcription
             entry.update(iterations=0 if solved is not None else sol.iterations, time_s=t_sol, cpu_s=c_sol)
-            companion, t_comp, c_comp = _timed_solve(problem, pilot_of(scheme) if r == 0 else companion_of(scheme),
-                                                     {**WARM_IPOPT, **options}, sol, progress, first)
+            judge = finer_at_hand(scheme, at_hand) if r > 0 else None
+            if solved is None:
+                at_hand.append(sol)
+            if judge is not None:   # a solution at hand is finer everywhere: it is the companion, no solve
+                companion, t_comp, c_comp = judge, 0.0, 0.0
+                entry["judged_against"] = {"intervals": judge.transcription.scheme.intervals,
+                                           "points": judge.transcription.scheme.point_count}
+            else:
+                companion, t_comp, c_comp = _timed_solve(problem, pilot_of(scheme) if r == 0 else companion_of(scheme),
+                                                         {**WARM_IPOPT, **options}, sol, progress, first)
+                at_hand.append(companion)
+            entry["solves"] = (solved is None) + (judge is None)
         except OCPSolveError as exc:
             record["message"] = f"refinement {r}: {exc}"
             if exc.solution is not None:
@@ -283,8 +248,9 @@ def solve_to_tolerance(problem, tolerance, method=None, ipopt_options: dict | No
         total += t_sol + t_comp
         total_cpu += c_sol + c_comp
         est = estimate_error(sol, companion)
-        entry.update(companion_iterations=companion.iterations, companion_time_s=t_comp, companion_cpu_s=c_comp,
-                     **est.as_dict())
+        if judge is None:
+            entry.update(companion_iterations=companion.iterations, companion_time_s=t_comp, companion_cpu_s=c_comp)
+        entry.update(**est.as_dict())
         ratio = np.max([est.per_interval[q] for q in GATED], axis=0) / tol
         record.update(mesh=entry["mesh"], degrees=entry["degrees"], estimate=entry["estimate"], worst=entry["worst"],
                       total_time_s=total, total_cpu_s=total_cpu, refinements=r)
@@ -332,9 +298,12 @@ def solve_to_tolerance(problem, tolerance, method=None, ipopt_options: dict | No
             break
         solved = None
         pilot = companion.transcription.scheme
-        if r == 0 and covered(new, pilot) and pilot.point_count <= SNAP_POINTS * new.point_count:
+        if (r == 0 and covered(new, pilot) and not finer(new, pilot)
+                and pilot.point_count <= SNAP_POINTS * new.point_count):
             # The pilot is at least as fine as the next mesh everywhere and not much larger: take it and
-            # its solution, each of its intervals born of the interval it halves.
+            # its solution, each of its intervals born of the interval it halves. Where the pilot is *finer*
+            # than the next mesh (:func:`finer`), the next mesh is solved instead and judged against the
+            # pilot: one solve of its points, against one of the pilot's companion (9/7 of the pilot's).
             new, solved = companion.transcription.scheme, companion
             mesh = scheme.mesh_fractions
             parents = {_ends(a, b): float(ratio[min(np.searchsorted(mesh, (a + b) / 2, side="right") - 1, len(ratio) - 1)])

@@ -14,6 +14,12 @@ gradient and Lagrangian Hessian are taken once, symbolically, on the small funct
 mapped over its instances, and scattered into the NLP's sparse matrices by one constant
 sparse product. Build time grows like the mesh, evaluation is as fast as the inlined SX.
 The result feeds ``casadi.nlpsol``'s ``grad_f``, ``jac_g`` and ``hess_lag`` options.
+
+An element's symbolic derivatives depend on its function alone (the mesh enters through
+instance counts, indices and constants), so a :func:`derivative_cache` keeps them per problem,
+keyed by the function's own serialization: the meshes of one refinement, and repeat solves,
+differentiate each kind once, and a problem edited after a solve (another objective, a path
+constraint) has other functions, hence other keys: an edit can never meet a stale derivative.
 """
 from __future__ import annotations
 
@@ -62,11 +68,23 @@ def element(name: str, z: ca.SX, c: ca.SX, rows: ca.SX, cost, indices, constants
     return Element(name, f, indices, constants, np.array(lo, float), np.array(hi, float))
 
 
-class BlockNLP:
-    """The NLP of a list of elements over ``n`` decision variables, with assembled derivatives."""
+# Kinds kept per problem at most: a refinement meets ~10 (a point, the ends, an interval per degree);
+# past this (a problem edited many times) the oldest go first.
+CACHED_KINDS = 64
 
-    def __init__(self, n: int, elements: list[Element]):
-        self.n, self.elements = n, elements
+
+def derivative_cache(owner) -> dict:
+    """The cache of element derivatives kept on ``owner`` (an optimal-control problem): serialized
+    function -> its derivative functions (:meth:`BlockNLP._derivatives`)."""
+    return owner.__dict__.setdefault("_element_derivatives", {})
+
+
+class BlockNLP:
+    """The NLP of a list of elements over ``n`` decision variables, with assembled derivatives;
+    ``cache`` (:func:`derivative_cache`): element derivatives taken before, by function."""
+
+    def __init__(self, n: int, elements: list[Element], cache: dict | None = None):
+        self.n, self.elements, self._cache = n, elements, cache
         self.w = ca.MX.sym("w", n)
         self.lam_f, self.p = ca.MX.sym("lam_f"), ca.MX.sym("p", 0)
         w_ext = ca.vertcat(self.w, 0)  # index -1 (taken as n) reads a fixed zero
@@ -101,32 +119,55 @@ class BlockNLP:
 
     def _differentiate(self, el: Element, Z, C, jac: _Entries, grad: _Entries, hess: _Entries) -> None:
         """One element's Jacobian, cost gradient and Lagrangian Hessian (upper triangle), taken
-        once on its SX function, mapped over its instances, with their global positions."""
+        once on its SX function (or found in the cache), mapped over its instances, with their global positions."""
         K, nr, offset = el.instances, el.rows_per_instance, self.row_offsets[el.name]
-        z, c = ca.SX.sym("z", el.function.sparsity_in(0)), ca.SX.sym("c", el.function.sparsity_in(1))
-        lam, lam_f = ca.SX.sym("lam", nr), ca.SX.sym("lam_f")
-        rows, cost = el.function(z, c)
-
-        def mapped(name: str, expr: ca.SX, inputs: list, values: list) -> ca.MX:
-            return ca.vec(ca.Function(f"{el.name}_{name}", inputs, [expr.nz[:]]).map(K)(*values))
-
-        J = ca.jacobian(rows, z)
-        if J.nnz():
-            jr, jc = (np.asarray(a) for a in J.sparsity().get_triplet())
-            jac.add(mapped("jac", J, [z, c], [Z, C]), offset + np.arange(K)[:, None] * nr + jr[None, :], el.indices[:, jc])
-        gradient = ca.gradient(cost, z)
-        if gradient.nnz():
-            gi = np.asarray(gradient.sparsity().get_triplet()[0])
-            grad.add(mapped("grad", gradient, [z, c], [Z, C]), el.indices[:, gi], np.zeros((K, len(gi)), int))
-        H = ca.tril(ca.hessian(lam_f * cost + ca.dot(lam, rows), z)[0])
-        if H.nnz():
-            hr, hc = (np.asarray(a) for a in H.sparsity().get_triplet())
+        d = self._derivatives(el)
+        if d["jac"] is not None:
+            f, jr, jc = d["jac"]
+            jac.add(ca.vec(f.map(K)(Z, C)), offset + np.arange(K)[:, None] * nr + jr[None, :], el.indices[:, jc])
+        if d["grad"] is not None:
+            f, gi = d["grad"]
+            grad.add(ca.vec(f.map(K)(Z, C)), el.indices[:, gi], np.zeros((K, len(gi)), int))
+        if d["hess"] is not None:
+            f, hr, hc = d["hess"]
             Lam = ca.reshape(self.lam_g[offset : offset + K * nr], nr, K)
             a, b = el.indices[:, hr], el.indices[:, hc]
             # A variable read twice by one instance: its local off-diagonal pair lands on
             # the global diagonal, where the symmetric counterpart adds the same again.
-            hess.add(mapped("hess", H, [z, c, lam, lam_f], [Z, C, Lam, self.lam_f]), np.minimum(a, b), np.maximum(a, b),
+            hess.add(ca.vec(f.map(K)(Z, C, Lam, self.lam_f)), np.minimum(a, b), np.maximum(a, b),
                      np.where((a == b) & (hr != hc)[None, :], 2.0, 1.0))
+
+    def _derivatives(self, el: Element) -> dict:
+        """The derivative functions of ``el.function`` (one instance) and their sparsity triplets:
+        ``jac`` (rows, z), ``grad`` (cost, z), ``hess`` (lower triangle of the Lagrangian's, with inputs
+        z, c, row multipliers, cost multiplier); None where structurally zero. Cached by the function's
+        serialization, which fixes the function completely (equal keys: the same function)."""
+        key = el.function.serialize() if self._cache is not None else None
+        if key is not None and key in self._cache:
+            return self._cache[key]
+        nr = el.rows_per_instance
+        z, c = ca.SX.sym("z", el.function.sparsity_in(0)), ca.SX.sym("c", el.function.sparsity_in(1))
+        lam, lam_f = ca.SX.sym("lam", nr), ca.SX.sym("lam_f")
+        rows, cost = el.function(z, c)
+
+        def function(name: str, expr: ca.SX, inputs: list) -> ca.Function:
+            return ca.Function(f"{el.name}_{name}", inputs, [expr.nz[:]])
+
+        out = {"jac": None, "grad": None, "hess": None}
+        J = ca.jacobian(rows, z)
+        if J.nnz():
+            out["jac"] = (function("jac", J, [z, c]), *(np.asarray(a) for a in J.sparsity().get_triplet()))
+        gradient = ca.gradient(cost, z)
+        if gradient.nnz():
+            out["grad"] = (function("grad", gradient, [z, c]), np.asarray(gradient.sparsity().get_triplet()[0]))
+        H = ca.tril(ca.hessian(lam_f * cost + ca.dot(lam, rows), z)[0])
+        if H.nnz():
+            out["hess"] = (function("hess", H, [z, c, lam, lam_f]), *(np.asarray(a) for a in H.sparsity().get_triplet()))
+        if key is not None:
+            while len(self._cache) >= CACHED_KINDS:
+                del self._cache[next(iter(self._cache))]
+            self._cache[key] = out
+        return out
 
     @property
     def nlp(self) -> dict:

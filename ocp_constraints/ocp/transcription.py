@@ -34,7 +34,7 @@ import casadi as ca
 import numpy as np
 
 from ..errors import ModelError
-from .nlp_assembly import BlockNLP, element
+from .nlp_assembly import BlockNLP, derivative_cache, element
 from .bounds import variable_bounds
 from .guess import consistent_guess, from_solution
 from .interpolation import interpolation_matrix
@@ -82,7 +82,7 @@ class Transcription:
             quad[points] += local.weights * hk
         self.fractions, self.quadrature = frac, quad
 
-        self.block = BlockNLP(sum(self.layout.sizes()), self._elements())
+        self.block = BlockNLP(sum(self.layout.sizes()), self._elements(), derivative_cache(getattr(self, "user_problem", problem)))
         self.nlp = self.block.nlp
         self._lbg, self._ubg = self.block.lbg, self.block.ubg
         self._boundary_rows = []
