@@ -1,5 +1,5 @@
-"""Element derivatives cached per problem (nlp_assembly.derivative_cache): reused across meshes, and never
-stale after the problem is edited.
+"""Element functions (transcription_elements) and their derivatives (nlp_assembly.derivative_cache) kept per
+problem: reused across meshes, and never stale after the problem is edited.
 
 The cached derivatives are checked against CasADi's own AD of the whole NLP graph (an independent
 derivation, as in test_nlp_assembly), on a mesh whose element kinds were all differentiated for another
@@ -21,12 +21,14 @@ from test_nlp_assembly import _assert_derivatives_agree
 def test_a_second_mesh_reuses_every_kind_and_its_derivatives_match_whole_graph_ad(kind):
     problem = build_task("pendulum", "swing_up")[1]
     kind(problem, Radau(mesh=(0.0, 0.5, 1.0), degrees=(3, 6)))
-    cache = derivative_cache(problem)
-    kinds = len(cache)
+    cache, built = derivative_cache(problem), problem.__dict__["_element_kinds"]
+    kinds, functions = len(cache), dict(built)
     # Other mesh points and instance counts, the same degrees (the first interval's too: Radau's input at t0
     # extrapolates it): no new kind, every derivative from the cache.
     tr = kind(problem, Radau(mesh=(0.0, 0.3, 0.6, 1.0), degrees=(3, 6, 3)))
-    assert len(cache) == kinds
+    assert len(cache) == kinds and set(built) == set(functions)        # neither an element function nor a derivative built
+    stored = {id(f) for f in functions.values()}
+    assert all(id(el.function) in stored for el in tr.block.elements)
     x = tr.initial_guess()
     _assert_derivatives_agree(tr.block, x + 0.1 * np.random.default_rng(3).standard_normal(x.size))
 

@@ -62,10 +62,19 @@ def element(name: str, z: ca.SX, c: ca.SX, rows: ca.SX, cost, indices, constants
         raise ValueError(f"element '{name}': {indices.shape[1]} indices for {z.numel()} variables")
     rows = ca.SX(rows) if not isinstance(rows, ca.SX) else rows
     f = ca.Function(name, [z, c], [ca.vec(rows), ca.SX(cost) if not isinstance(cost, ca.SX) else cost])
-    n = f.size1_out(0)
+    return instances(name, f, indices, constants, lower, upper)
+
+
+def instances(name: str, function: ca.Function, indices, constants, lower=0.0, upper=0.0) -> Element:
+    """An :class:`Element` of a built ``function(z, c) -> (rows, cost)`` (one kind, reused across meshes)."""
+    indices = np.atleast_2d(np.asarray(indices, dtype=np.int64))
+    constants = np.asarray(constants, dtype=float).reshape(indices.shape[0], function.numel_in(1))
+    if indices.shape[1] != function.numel_in(0):
+        raise ValueError(f"element '{name}': {indices.shape[1]} indices for {function.numel_in(0)} variables")
+    n = function.size1_out(0)
     lo = np.broadcast_to(np.asarray(lower, dtype=float), (n,) if np.size(lower) in (1, n) else (indices.shape[0] * n,))
     hi = np.broadcast_to(np.asarray(upper, dtype=float), lo.shape)
-    return Element(name, f, indices, constants, np.array(lo, float), np.array(hi, float))
+    return Element(name, function, indices, constants, np.array(lo, float), np.array(hi, float))
 
 
 # Kinds kept per problem at most: a refinement meets ~10 (a point, the ends, an interval per degree);

@@ -28,13 +28,11 @@ repeated over the mesh; IPOPT gets exact derivatives assembled from each element
 from __future__ import annotations
 
 import time
-from types import SimpleNamespace
 
 import casadi as ca
 import numpy as np
 
-from ..errors import ModelError
-from .nlp_assembly import BlockNLP, derivative_cache, element
+from .nlp_assembly import BlockNLP, derivative_cache
 from .bounds import variable_bounds
 from .guess import consistent_guess, from_solution
 from .interpolation import interpolation_matrix
@@ -44,12 +42,13 @@ from .solution import OCPSolution
 from ..errors import OCPSolveError
 from ..mechanics.state import project_positions
 from .schemes import Scheme
+from .transcription_elements import ElementKinds
 
 DEFAULT_IPOPT = {"ipopt.tol": 1e-10, "ipopt.constr_viol_tol": 1e-10, "ipopt.max_iter": 3000,
                  "ipopt.print_level": 0, "print_time": False, "ipopt.sb": "yes"}
 
 
-class Transcription:
+class Transcription(ElementKinds):
     """The NLP of one problem and one scheme, built once, solvable many times."""
 
     def __init__(self, problem, scheme: Scheme):
@@ -100,169 +99,6 @@ class Transcription:
     def interpolation_matrix(self, fractions) -> np.ndarray:
         """Point values to values at normalized times (:func:`.interpolation.interpolation_matrix`)."""
         return interpolation_matrix(self, fractions)
-
-    def _groups(self) -> dict:
-        """Intervals sharing one local scheme (one element kind each): ``{label: (scheme, [k, ...])}``."""
-        out: dict = {}
-        for k, local in enumerate(self.local):
-            out.setdefault(local.label, (local, []))[1].append(k)
-        return out
-
-    # -- the NLP as elements repeated over the mesh (see nlp_assembly) --------------------------
-    def _indices(self) -> dict:
-        """Where each point's blocks sit in the decision vector (``-1``: a fixed zero)."""
-        lay = self.layout
-        start = np.concatenate([[0], np.cumsum(lay.sizes())])
-
-        def block(b: int, size: int):
-            return lambda i: start[b] + i * size + np.arange(size)
-
-        def gamma(i: int) -> np.ndarray:
-            # No kinematic slack at t0: the positions there are the initial ones.
-            return start[4] + (i - 1) * lay.nh + np.arange(lay.nh) if i > 0 else -np.ones(lay.nh, int)
-
-        return {"x": block(0, lay.nx), "a": block(1, lay.nu), "lam": block(2, lay.nc), "w": block(3, lay.n_in),
-                "gamma": gamma, "T": [start[5]] if lay.free_time else []}
-
-    def _elements(self) -> list:
-        """The NLP's pieces: dynamics at the points, defects on the intervals, t0 and end rows."""
-        e, lay = self.eqs, self.layout
-        T = ca.SX.sym("T")
-        # The horizon: a variable of every element (free final time) or a constant.
-        s = SimpleNamespace(point=self._point_functions(), index=self._indices(), T=T,
-                            x=ca.SX.sym("x", lay.nx), a=ca.SX.sym("a", e.nu), lam=ca.SX.sym("lam", e.nc),
-                            w=ca.SX.sym("w", lay.n_in), none=ca.SX.sym("none", 0),
-                            T_z=[T] if lay.free_time else [], T_c=[] if lay.free_time else [T],
-                            T_value=[] if lay.free_time else [self.problem.t_final])
-        return [*self._point_elements(s), *self._interval_elements(s), *self._end_elements(s)]
-
-    def _point_elements(self, s) -> list:
-        """Dynamics, velocity, position and path rows, and the integrand, at every point."""
-        pr, e, lay, scheme = self.problem, self.eqs, self.layout, self.scheme
-        x, a, lam, w, T, index = s.x, s.a, s.lam, s.w, s.T, s.index
-        frac, quad = ca.SX.sym("frac"), ca.SX.sym("quad")
-        t = frac * T
-        rows = list(s.point["residuals"](x, a, lam, w, t))
-        if pr.path_constraints:
-            rows.append(s.point["path"](x, lam, w, t))
-        rows = ca.vertcat(*rows)
-        n_eq = e.nu + e.nc + lay.nh
-        lo = [0.0] * n_eq + [pc.lower for pc in pr.path_constraints]
-        hi = [0.0] * n_eq + [pc.upper for pc in pr.path_constraints]
-        cost = quad * T * s.point["integrand"](x, lam, w, t) if pr.integral_terms else ca.SX(0)
-        at_points = range(1) if self.from_speeds else range(lay.n_points)
-        out = [element(
-            "point", ca.vertcat(x, a, lam, w, *s.T_z), ca.vertcat(frac, quad, *s.T_c), rows, cost,
-            [np.concatenate([index["x"](i), index["a"](i), index["lam"](i), index["w"](i), index["T"]]) for i in at_points],
-            [[self.fractions[i], self.quadrature[i], *s.T_value] for i in at_points], lo, hi)]
-        if not self.from_speeds:
-            return out
-        # After t0: a = u' from the interval's speeds, (sum_r C[r, j] u_r) / h; one element
-        # kind per interval degree (the column C_j has p entries).
-        mesh, groups = scheme.mesh_fractions, self._groups()
-        for label, (local, intervals) in groups.items():
-            p, C = len(local.tau), local.derivative_matrix
-            us = ca.SX.sym("u_interval", e.nu, p)
-            column, h = ca.SX.sym("C_j", p), ca.SX.sym("h")
-            rows_k, cost_k = ca.substitute([rows, cost], [a], [us @ column / (h * T)])
-            instances = [(k, j, self.offsets[k] + j) for k in intervals for j in range(1, p)]
-            out.append(element(
-                "collocation_point" if len(groups) == 1 else f"collocation_point_{label}",
-                ca.vertcat(x, lam, w, ca.vec(us), *s.T_z), ca.vertcat(frac, quad, column, h, *s.T_c),
-                rows_k, cost_k,
-                [np.concatenate([index["x"](i), index["lam"](i), index["w"](i),
-                                 *(index["x"](r)[e.nq :] for r in self.interval_points(k)), index["T"]])
-                 for k, j, i in instances],
-                [[self.fractions[i], self.quadrature[i], *C[:, j], mesh[k + 1] - mesh[k], *s.T_value] for k, j, i in instances],
-                lo, hi))
-        return out
-
-    def _interval_elements(self, s) -> list:
-        """The scheme's defects on every interval (one element kind per interval degree)."""
-        e, lay, scheme, index = self.eqs, self.layout, self.scheme, s.index
-        mesh, groups = scheme.mesh_fractions, self._groups()
-        out = []
-        for label, (local, intervals) in groups.items():
-            p = len(local.tau)
-            xs = [ca.SX.sym(f"x{j}", lay.nx) for j in range(p)]
-            accelerations = [ca.SX.sym(f"a{j}", e.nu) for j in range(p)]
-            gammas = [ca.SX.sym(f"gamma{j}", lay.nh) for j in range(p)]
-            fractions, h = ca.SX.sym("frac", p), ca.SX.sym("h")
-            D = [ca.vertcat(s.point["kinematics"](xs[j], gammas[j], fractions[j] * s.T), accelerations[j]) for j in range(p)]
-            defects = local.defects(xs, D, h * s.T)
-            if self.from_speeds:
-                # The speed rows hold by construction of a; only the coordinate rows remain.
-                defects, accelerations = [d[: e.nq] for d in defects], []
-
-            def variables(k: int) -> np.ndarray:
-                points = self.interval_points(k)
-                return np.concatenate([*(index["x"](i) for i in points),
-                                       *(index["a"](i) for i in points if not self.from_speeds),
-                                       *(index["gamma"](i) for i in points), index["T"]])
-
-            out.append(element("interval" if len(groups) == 1 else f"interval_{label}",
-                               ca.vertcat(*xs, *accelerations, *gammas, *s.T_z), ca.vertcat(fractions, h, *s.T_c),
-                               ca.vertcat(*defects), 0, [variables(k) for k in intervals],
-                               [[*self.fractions[list(self.interval_points(k))], mesh[k + 1] - mesh[k], *s.T_value]
-                                for k in intervals]))
-        return out
-
-    def _end_elements(self, s) -> list:
-        """Acceleration-level constraints at t0, Radau's input extrapolation, boundary values, final time."""
-        pr, e, lay, scheme, index = self.problem, self.eqs, self.layout, self.scheme, s.index
-        x, a, w, none = s.x, s.a, s.w, s.none
-        d0 = ca.vertcat(s.point["kinematics"](x, ca.SX.zeros(lay.nh), 0), a)
-        out = [element("acceleration", ca.vertcat(x, a, w), none, s.point["acceleration"](x, d0, w, 0), 0,
-                       [np.concatenate([index["x"](0), index["a"](0), index["w"](0)])], np.zeros((1, 0)))]
-        if not scheme.first_point_has_controls and lay.n_in and not ca.depends_on(ca.vertcat(ca.vec(e.G), e.e), e.inputs):
-            # Radau never uses inputs at t0 in its defects: take the first interval's input
-            # polynomial there, so that lambda_0 (from the acceleration constraint) is consistent.
-            ell = self.local[0].start_extrapolation
-            ws = [ca.SX.sym(f"w{j}", lay.n_in) for j in range(len(ell) + 1)]
-            out.append(element("extrapolation", ca.vertcat(*ws), none, ws[0] - sum(ell[j] * ws[j + 1] for j in range(len(ell))), 0,
-                               [np.concatenate([index["w"](j) for j in range(len(ell) + 1)])], np.zeros((1, 0))))
-        for which, values in (("initial", pr.initial_values), ("final", pr.final_values)):
-            i = 0 if which == "initial" else lay.n_points - 1
-            quantities = [s.point["named"][n](x, w) for n in values]
-            out.append(element(which, ca.vertcat(x, w), none, ca.vertcat(*quantities) if quantities else ca.SX(0, 1), 0,
-                               [np.concatenate([index["x"](i), index["w"](i)])], np.zeros((1, 0))))
-        if lay.free_time and pr.time_weight:
-            out.append(element("final_time", s.T, none, ca.SX(0, 1), pr.time_weight * s.T, [index["T"]], np.zeros((1, 0))))
-        return out
-
-    # -- per-point pieces, as SX functions -----------------------------------------------------
-    def _point_functions(self) -> dict:
-        pr, e = self.problem, self.eqs
-        x = ca.vertcat(e.q, e.u)
-        d = ca.SX.sym("d", x.numel())
-        a = ca.SX.sym("a", e.nu)
-        # Position rows: the constraints' position forms and each unit quaternion's length (SystemEquations).
-        positions = e.position_rows
-        gam = ca.SX.sym("gamma", positions.numel())
-        lam = pr.lam
-        phi_q = ca.jacobian(positions, e.q)
-        kin = e.qdot + (phi_q.T @ gam if positions.numel() else 0)
-        dyn = e.mass_matrix @ a - e.forces - e.G.T @ lam
-        vel = e.G @ e.u + e.e
-        out = {"kinematics": ca.Function("kinematics", [x, gam, e.t], [kin]),
-               "residuals": ca.Function("residuals", [x, a, lam, e.inputs, e.t], [dyn, vel, positions])}
-        pi = e.G @ e.u + e.e
-        # d(pi)/dt at t0 with q' = D_q, u' = D_u; rows where an input enters are left out
-        # (the input's rate there is the optimizer's free choice).
-        acc = e.G @ d[e.nq :] + ca.jtimes(pi, e.q, d[: e.nq]) + ca.jacobian(pi, e.t)
-        keep = [k for k in range(e.nc) if not ca.depends_on(pi[k], e.inputs)]
-        out["acceleration"] = ca.Function("acceleration", [x, d, e.inputs, e.t], [acc[keep] if keep else ca.SX(0, 1)])
-        if pr.integral_terms:
-            integrand = sum(term.weight * term.expression for term in pr.integral_terms)
-            out["integrand"] = ca.Function("integrand", [x, lam, e.inputs, e.t], [integrand])
-        if pr.path_constraints:
-            out["path"] = ca.Function("path", [x, lam, e.inputs, e.t], [ca.vertcat(*[c.expression for c in pr.path_constraints])])
-        for term in pr.integral_terms + pr.path_constraints:
-            extra = [s.name() for s in ca.symvar(term.expression) if not ca.depends_on(ca.vertcat(x, lam, e.inputs, e.t), s)]
-            if extra:
-                raise ModelError(f"'{term.label}' uses {extra}, which are not quantities of model '{pr.model.name}'")
-        out["named"] = {n: ca.Function("boundary", [x, e.inputs], [pr.quantity(n)]) for n in {**pr.initial_values, **pr.final_values}}
-        return out
 
     # -- bounds and guess ---------------------------------------------------------------------
     def _bounds(self, x0: np.ndarray) -> tuple[np.ndarray, np.ndarray]:

@@ -1,0 +1,246 @@
+"""The transcription's NLP as element kinds repeated over the mesh (:mod:`.nlp_assembly`), each kind built once.
+
+A kind (the dynamics at a point, the defects of an interval of degree ``d``, the boundary rows) is an SX
+function ``(z, c) -> (rows, cost)`` whose mesh enters only through the constants ``c`` (fractions,
+quadrature weights, ``h``): the meshes of a refinement (:mod:`.mesh_refinement`), and repeat solves of
+one problem, share it. Kinds are kept on the problem, keyed by what they are built from: the class of
+the transcription, the kind and its local scheme, and the *fingerprint* of the problem's point functions
+(their serialization: dynamics, constraints, objective integrand, path constraints, boundary
+quantities, in the coordinates of the NLP), with the few numbers baked in besides (the final-time
+weight, whether the final time is free). An edit of the problem after a solve changes the point
+functions, so the fingerprint, so the key: it is never met by a stale kind.
+
+The NLP itself (rows, variables, Posa slacks) is described in :mod:`.transcription`.
+"""
+from __future__ import annotations
+
+from types import SimpleNamespace
+
+import casadi as ca
+import numpy as np
+
+from ..errors import ModelError
+from .nlp_assembly import CACHED_KINDS, instances
+
+SX = ca.SX
+
+
+class ElementKinds:
+    """The element methods of :class:`~.transcription.Transcription` (a mixin: it reads ``problem``, ``eqs``,
+    ``layout``, ``scheme``, ``local``, ``offsets``, ``fractions``, ``quadrature``, ``from_speeds``)."""
+
+    def _groups(self) -> dict:
+        """Intervals sharing one local scheme (one element kind each): ``{label: (scheme, [k, ...])}``."""
+        out: dict = {}
+        for k, local in enumerate(self.local):
+            out.setdefault(local.label, (local, []))[1].append(k)
+        return out
+
+    def _kind(self, s, key: tuple, build) -> ca.Function:
+        """The kind ``key`` from the problem's store, built by ``build()`` (-> ``(z, c, rows, cost)``) if missing."""
+        owner = getattr(self, "user_problem", self.problem)
+        store = owner.__dict__.setdefault("_element_kinds", {})
+        full = (type(self).__qualname__, s.fingerprint, self.layout.free_time, *key)
+        if full not in store:
+            z, c, rows, cost = build()
+            rows = rows if isinstance(rows, SX) else SX(rows)
+            while len(store) >= CACHED_KINDS:
+                del store[next(iter(store))]
+            store[full] = ca.Function(str(key[0]), [z, c], [ca.vec(rows), cost if isinstance(cost, SX) else SX(cost)])
+        return store[full]
+
+    # -- the NLP as elements repeated over the mesh (see nlp_assembly) --------------------------
+    def _indices(self) -> dict:
+        """Where each point's blocks sit in the decision vector (``-1``: a fixed zero)."""
+        lay = self.layout
+        start = np.concatenate([[0], np.cumsum(lay.sizes())])
+
+        def block(b: int, size: int):
+            return lambda i: start[b] + i * size + np.arange(size)
+
+        def gamma(i: int) -> np.ndarray:
+            # No kinematic slack at t0: the positions there are the initial ones.
+            return start[4] + (i - 1) * lay.nh + np.arange(lay.nh) if i > 0 else -np.ones(lay.nh, int)
+
+        return {"x": block(0, lay.nx), "a": block(1, lay.nu), "lam": block(2, lay.nc), "w": block(3, lay.n_in),
+                "gamma": gamma, "T": [start[5]] if lay.free_time else []}
+
+    def _elements(self) -> list:
+        """The NLP's pieces: dynamics at the points, defects on the intervals, t0 and end rows."""
+        e, lay = self.eqs, self.layout
+        T = SX.sym("T")
+        point = self._point_functions()
+        # The horizon: a variable of every element (free final time) or a constant.
+        s = SimpleNamespace(point=point, fingerprint=_fingerprint(point), index=self._indices(), T=T,
+                            x=SX.sym("x", lay.nx), a=SX.sym("a", e.nu), lam=SX.sym("lam", e.nc),
+                            w=SX.sym("w", lay.n_in), none=SX.sym("none", 0),
+                            T_z=[T] if lay.free_time else [], T_c=[] if lay.free_time else [T],
+                            T_value=[] if lay.free_time else [self.problem.t_final])
+        return [*self._point_elements(s), *self._interval_elements(s), *self._end_elements(s)]
+
+    def _point_rows(self, s, a) -> tuple:
+        """Dynamics, velocity, position and path rows, and the integrand, at a point (``a``: u' there)."""
+        pr, x, lam, w = self.problem, s.x, s.lam, s.w
+        frac, quad = SX.sym("frac"), SX.sym("quad")
+        t = frac * s.T
+        rows = list(s.point["residuals"](x, a, lam, w, t))
+        if pr.path_constraints:
+            rows.append(s.point["path"](x, lam, w, t))
+        cost = quad * s.T * s.point["integrand"](x, lam, w, t) if pr.integral_terms else SX(0)
+        return frac, quad, ca.vertcat(*rows), cost
+
+    def _point_elements(self, s) -> list:
+        """Dynamics, velocity, position and path rows, and the integrand, at every point."""
+        pr, e, lay, scheme = self.problem, self.eqs, self.layout, self.scheme
+        x, a, lam, w, index = s.x, s.a, s.lam, s.w, s.index
+        n_eq = e.nu + e.nc + lay.nh
+        lo = [0.0] * n_eq + [pc.lower for pc in pr.path_constraints]
+        hi = [0.0] * n_eq + [pc.upper for pc in pr.path_constraints]
+
+        def build_point():
+            frac, quad, rows, cost = self._point_rows(s, a)
+            return ca.vertcat(x, a, lam, w, *s.T_z), ca.vertcat(frac, quad, *s.T_c), rows, cost
+
+        at_points = range(1) if self.from_speeds else range(lay.n_points)
+        out = [instances("point", self._kind(s, ("point",), build_point),
+                         [np.concatenate([index["x"](i), index["a"](i), index["lam"](i), index["w"](i), index["T"]])
+                          for i in at_points],
+                         [[self.fractions[i], self.quadrature[i], *s.T_value] for i in at_points], lo, hi)]
+        if not self.from_speeds:
+            return out
+        # After t0: a = u' from the interval's speeds, (sum_r C[r, j] u_r) / h; one element
+        # kind per interval degree (the column C_j has p entries).
+        mesh, groups = scheme.mesh_fractions, self._groups()
+        for label, (local, intervals) in groups.items():
+            p, C = len(local.tau), local.derivative_matrix
+
+            def build_collocation(p=p):
+                us = SX.sym("u_interval", e.nu, p)
+                column, h = SX.sym("C_j", p), SX.sym("h")
+                frac, quad, rows, cost = self._point_rows(s, us @ column / (h * s.T))
+                return (ca.vertcat(x, lam, w, ca.vec(us), *s.T_z), ca.vertcat(frac, quad, column, h, *s.T_c), rows, cost)
+
+            points = [(k, j, self.offsets[k] + j) for k in intervals for j in range(1, p)]
+            out.append(instances(
+                "collocation_point" if len(groups) == 1 else f"collocation_point_{label}",
+                self._kind(s, ("collocation_point", label), build_collocation),
+                [np.concatenate([index["x"](i), index["lam"](i), index["w"](i),
+                                 *(index["x"](r)[e.nq :] for r in self.interval_points(k)), index["T"]])
+                 for k, j, i in points],
+                [[self.fractions[i], self.quadrature[i], *C[:, j], mesh[k + 1] - mesh[k], *s.T_value] for k, j, i in points],
+                lo, hi))
+        return out
+
+    def _interval_elements(self, s) -> list:
+        """The scheme's defects on every interval (one element kind per interval degree)."""
+        e, lay, scheme, index = self.eqs, self.layout, self.scheme, s.index
+        mesh, groups = scheme.mesh_fractions, self._groups()
+        out = []
+        for label, (local, intervals) in groups.items():
+            p = len(local.tau)
+
+            def build(local=local, p=p):
+                xs = [SX.sym(f"x{j}", lay.nx) for j in range(p)]
+                accelerations = [SX.sym(f"a{j}", e.nu) for j in range(p)]
+                gammas = [SX.sym(f"gamma{j}", lay.nh) for j in range(p)]
+                fractions, h = SX.sym("frac", p), SX.sym("h")
+                D = [ca.vertcat(s.point["kinematics"](xs[j], gammas[j], fractions[j] * s.T), accelerations[j]) for j in range(p)]
+                defects = local.defects(xs, D, h * s.T)
+                if self.from_speeds:
+                    # The speed rows hold by construction of a; only the coordinate rows remain.
+                    defects, accelerations = [d[: e.nq] for d in defects], []
+                return (ca.vertcat(*xs, *accelerations, *gammas, *s.T_z), ca.vertcat(fractions, h, *s.T_c),
+                        ca.vertcat(*defects), 0)
+
+            def variables(k: int) -> np.ndarray:
+                points = self.interval_points(k)
+                return np.concatenate([*(index["x"](i) for i in points),
+                                       *(index["a"](i) for i in points if not self.from_speeds),
+                                       *(index["gamma"](i) for i in points), index["T"]])
+
+            out.append(instances("interval" if len(groups) == 1 else f"interval_{label}",
+                                 self._kind(s, ("interval", label, self.from_speeds), build),
+                                 [variables(k) for k in intervals],
+                                 [[*self.fractions[list(self.interval_points(k))], mesh[k + 1] - mesh[k], *s.T_value]
+                                  for k in intervals]))
+        return out
+
+    def _end_elements(self, s) -> list:
+        """Acceleration-level constraints at t0, Radau's input extrapolation, boundary values, final time."""
+        pr, e, lay, scheme, index = self.problem, self.eqs, self.layout, self.scheme, s.index
+        x, a, w, none = s.x, s.a, s.w, s.none
+
+        def build_acceleration():
+            d0 = ca.vertcat(s.point["kinematics"](x, SX.zeros(lay.nh), 0), a)
+            return ca.vertcat(x, a, w), none, s.point["acceleration"](x, d0, w, 0), 0
+
+        out = [instances("acceleration", self._kind(s, ("acceleration",), build_acceleration),
+                         [np.concatenate([index["x"](0), index["a"](0), index["w"](0)])], np.zeros((1, 0)))]
+        if not scheme.first_point_has_controls and lay.n_in and not ca.depends_on(ca.vertcat(ca.vec(e.G), e.e), e.inputs):
+            # Radau never uses inputs at t0 in its defects: take the first interval's input
+            # polynomial there, so that lambda_0 (from the acceleration constraint) is consistent.
+            ell = self.local[0].start_extrapolation
+
+            def build_extrapolation():
+                ws = [SX.sym(f"w{j}", lay.n_in) for j in range(len(ell) + 1)]
+                return ca.vertcat(*ws), none, ws[0] - sum(ell[j] * ws[j + 1] for j in range(len(ell))), 0
+
+            out.append(instances("extrapolation", self._kind(s, ("extrapolation", self.local[0].label), build_extrapolation),
+                                 [np.concatenate([index["w"](j) for j in range(len(ell) + 1)])], np.zeros((1, 0))))
+        for which, values in (("initial", pr.initial_values), ("final", pr.final_values)):
+            i = 0 if which == "initial" else lay.n_points - 1
+
+            def build_boundary(values=values):
+                quantities = [s.point["named"][n](x, w) for n in values]
+                return ca.vertcat(x, w), none, ca.vertcat(*quantities) if quantities else SX(0, 1), 0
+
+            out.append(instances(which, self._kind(s, (which, tuple(values)), build_boundary),
+                                 [np.concatenate([index["x"](i), index["w"](i)])], np.zeros((1, 0))))
+        if lay.free_time and pr.time_weight:
+            out.append(instances("final_time", self._kind(s, ("final_time", float(pr.time_weight)),
+                                                          lambda: (s.T, none, SX(0, 1), pr.time_weight * s.T)),
+                                 [index["T"]], np.zeros((1, 0))))
+        return out
+
+    # -- per-point pieces, as SX functions -----------------------------------------------------
+    def _point_functions(self) -> dict:
+        pr, e = self.problem, self.eqs
+        x = ca.vertcat(e.q, e.u)
+        d = SX.sym("d", x.numel())
+        a = SX.sym("a", e.nu)
+        # Position rows: the constraints' position forms and each unit quaternion's length (SystemEquations).
+        positions = e.position_rows
+        gam = SX.sym("gamma", positions.numel())
+        lam = pr.lam
+        phi_q = ca.jacobian(positions, e.q)
+        kin = e.qdot + (phi_q.T @ gam if positions.numel() else 0)
+        dyn = e.mass_matrix @ a - e.forces - e.G.T @ lam
+        vel = e.G @ e.u + e.e
+        out = {"kinematics": ca.Function("kinematics", [x, gam, e.t], [kin]),
+               "residuals": ca.Function("residuals", [x, a, lam, e.inputs, e.t], [dyn, vel, positions])}
+        pi = e.G @ e.u + e.e
+        # d(pi)/dt at t0 with q' = D_q, u' = D_u; rows where an input enters are left out
+        # (the input's rate there is the optimizer's free choice).
+        acc = e.G @ d[e.nq :] + ca.jtimes(pi, e.q, d[: e.nq]) + ca.jacobian(pi, e.t)
+        keep = [k for k in range(e.nc) if not ca.depends_on(pi[k], e.inputs)]
+        out["acceleration"] = ca.Function("acceleration", [x, d, e.inputs, e.t], [acc[keep] if keep else SX(0, 1)])
+        if pr.integral_terms:
+            integrand = sum(term.weight * term.expression for term in pr.integral_terms)
+            out["integrand"] = ca.Function("integrand", [x, lam, e.inputs, e.t], [integrand])
+        if pr.path_constraints:
+            out["path"] = ca.Function("path", [x, lam, e.inputs, e.t], [ca.vertcat(*[c.expression for c in pr.path_constraints])])
+        for term in pr.integral_terms + pr.path_constraints:
+            extra = [s.name() for s in ca.symvar(term.expression) if not ca.depends_on(ca.vertcat(x, lam, e.inputs, e.t), s)]
+            if extra:
+                raise ModelError(f"'{term.label}' uses {extra}, which are not quantities of model '{pr.model.name}'")
+        out["named"] = {n: ca.Function("boundary", [x, e.inputs], [pr.quantity(n)]) for n in {**pr.initial_values, **pr.final_values}}
+        return out
+
+
+def _fingerprint(point: dict) -> str:
+    """What the point functions compute, as one string (their serializations, in a fixed order): two
+    problems, or one before and after an edit, share element kinds only where these are equal."""
+    named = point.get("named", {})
+    parts = [f"{k}:{point[k].serialize()}" for k in sorted(point) if k != "named"]
+    parts += [f"named {n}:{named[n].serialize()}" for n in sorted(named)]
+    return "\n".join(parts)
