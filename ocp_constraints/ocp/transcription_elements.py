@@ -55,12 +55,15 @@ class ElementKinds:
         lay = self.layout
         start = np.concatenate([[0], np.cumsum(lay.sizes())])
 
+        # Each takes a point or an array of points (shape (..., 1)) and gives (..., size): the elements'
+        # indices are built for all their instances at once.
         def block(b: int, size: int):
-            return lambda i: start[b] + i * size + np.arange(size)
+            return lambda i: start[b] + np.asarray(i) * size + np.arange(size)
 
-        def gamma(i: int) -> np.ndarray:
+        def gamma(i) -> np.ndarray:
             # No kinematic slack at t0: the positions there are the initial ones.
-            return start[4] + (i - 1) * lay.nh + np.arange(lay.nh) if i > 0 else -np.ones(lay.nh, int)
+            i = np.asarray(i)
+            return np.where(i > 0, start[4] + (i - 1) * lay.nh + np.arange(lay.nh), -1)
 
         return {"x": block(0, lay.nx), "a": block(1, lay.nu), "lam": block(2, lay.nc), "w": block(3, lay.n_in),
                 "gamma": gamma, "T": [start[5]] if lay.free_time else []}
@@ -101,11 +104,10 @@ class ElementKinds:
             frac, quad, rows, cost = self._point_rows(s, a)
             return ca.vertcat(x, a, lam, w, *s.T_z), ca.vertcat(frac, quad, *s.T_c), rows, cost
 
-        at_points = range(1) if self.from_speeds else range(lay.n_points)
+        at = np.arange(1 if self.from_speeds else lay.n_points)[:, None]
         out = [instances("point", self._kind(s, ("point",), build_point),
-                         [np.concatenate([index["x"](i), index["a"](i), index["lam"](i), index["w"](i), index["T"]])
-                          for i in at_points],
-                         [[self.fractions[i], self.quadrature[i], *s.T_value] for i in at_points], lo, hi)]
+                         _columns(len(at), index["x"](at), index["a"](at), index["lam"](at), index["w"](at), index["T"]),
+                         _columns(len(at), self.fractions[at], self.quadrature[at], s.T_value), lo, hi)]
         if not self.from_speeds:
             return out
         # After t0: a = u' from the interval's speeds, (sum_r C[r, j] u_r) / h; one element
@@ -120,14 +122,17 @@ class ElementKinds:
                 frac, quad, rows, cost = self._point_rows(s, us @ column / (h * s.T))
                 return (ca.vertcat(x, lam, w, ca.vec(us), *s.T_z), ca.vertcat(frac, quad, column, h, *s.T_c), rows, cost)
 
-            points = [(k, j, self.offsets[k] + j) for k in intervals for j in range(1, p)]
+            # Instances: interval k's collocation points j = 1 .. p-1 (point i), each reading all p speeds of k.
+            ks = np.repeat(intervals, p - 1)
+            js = np.tile(np.arange(1, p), len(intervals))
+            i = (self.offsets[ks] + js)[:, None]
+            speeds = index["x"]((self.offsets[ks][:, None] + np.arange(p))[:, :, None])[:, :, e.nq :]
             out.append(instances(
                 "collocation_point" if len(groups) == 1 else f"collocation_point_{label}",
                 self._kind(s, ("collocation_point", label), build_collocation),
-                [np.concatenate([index["x"](i), index["lam"](i), index["w"](i),
-                                 *(index["x"](r)[e.nq :] for r in self.interval_points(k)), index["T"]])
-                 for k, j, i in points],
-                [[self.fractions[i], self.quadrature[i], *C[:, j], mesh[k + 1] - mesh[k], *s.T_value] for k, j, i in points],
+                _columns(len(i), index["x"](i), index["lam"](i), index["w"](i), speeds.reshape(len(i), -1), index["T"]),
+                _columns(len(i), self.fractions[i], self.quadrature[i], C[:, js].T, (mesh[ks + 1] - mesh[ks])[:, None],
+                         s.T_value),
                 lo, hi))
         return out
 
@@ -152,17 +157,16 @@ class ElementKinds:
                 return (ca.vertcat(*xs, *accelerations, *gammas, *s.T_z), ca.vertcat(fractions, h, *s.T_c),
                         ca.vertcat(*defects), 0)
 
-            def variables(k: int) -> np.ndarray:
-                points = self.interval_points(k)
-                return np.concatenate([*(index["x"](i) for i in points),
-                                       *(index["a"](i) for i in points if not self.from_speeds),
-                                       *(index["gamma"](i) for i in points), index["T"]])
-
+            ks = np.asarray(intervals)
+            points = self.offsets[ks][:, None] + np.arange(p)          # K x p
+            at = points[:, :, None]
+            variables = _columns(len(ks), index["x"](at).reshape(len(ks), -1),
+                                 *([] if self.from_speeds else [index["a"](at).reshape(len(ks), -1)]),
+                                 index["gamma"](at).reshape(len(ks), -1), index["T"])
             out.append(instances("interval" if len(groups) == 1 else f"interval_{label}",
                                  self._kind(s, ("interval", label, self.from_speeds), build),
-                                 [variables(k) for k in intervals],
-                                 [[*self.fractions[list(self.interval_points(k))], mesh[k + 1] - mesh[k], *s.T_value]
-                                  for k in intervals]))
+                                 variables,
+                                 _columns(len(ks), self.fractions[points], (mesh[ks + 1] - mesh[ks])[:, None], s.T_value)))
         return out
 
     def _end_elements(self, s) -> list:
@@ -235,6 +239,13 @@ class ElementKinds:
                 raise ModelError(f"'{term.label}' uses {extra}, which are not quantities of model '{pr.model.name}'")
         out["named"] = {n: ca.Function("boundary", [x, e.inputs], [pr.quantity(n)]) for n in {**pr.initial_values, **pr.final_values}}
         return out
+
+
+def _columns(rows: int, *blocks) -> np.ndarray:
+    """Blocks side by side, one row per instance: 2-D arrays of ``rows`` rows, or one row (a list: the final
+    time's index or value) repeated on every row. Indices come out as floats, exact, cast back by the element."""
+    return np.hstack([np.asarray(b) if np.ndim(b) == 2 else np.broadcast_to(np.asarray(b, float), (rows, len(b)))
+                      for b in blocks])
 
 
 def _fingerprint(point: dict) -> str:
