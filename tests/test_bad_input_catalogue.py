@@ -385,7 +385,7 @@ def quaternion_ball_ocp_three_components():
 
 def unit_quaternion_turn(sol) -> str:
     """|q| = 1 at every point and the final qw that a unit quaternion with the given qx, qy, qz has; the
-    optimum against another parameterization is tests/test_diagnostics_quaternions.py's."""
+    optimum against another parameterization is tests/test_ocp_quaternions.py's."""
     q = np.vstack([sol.sample(f"bob.q{c}") for c in "wxyz"])
     assert np.abs(np.linalg.norm(q, axis=0) - 1.0).max() < 1e-9, np.linalg.norm(q, axis=0)
     assert abs(q[0, -1]) == pytest.approx(0.8686198214082874, abs=1e-9)

@@ -54,7 +54,8 @@ class SystemEquations:
     ``mass_matrix``; ``forces`` (applied + gyroscopic); ``G``, ``e`` (constraints,
     ``G u + e = 0``); ``gamma`` (so that ``d(pi)/dt = G u' + gamma``); ``phi`` (the
     position forms of holonomic constraints); ``position_rows`` (``phi`` and each unit
-    quaternion's length, :func:`unit_lengths`: what a transcription holds at its points); ``energy``.
+    quaternion's length, :func:`unit_lengths`, of the bodies ``unit_length_bodies`` in that order: what
+    a transcription holds at its points); ``energy``.
     """
 
     def __init__(self, model: Model):
@@ -99,6 +100,7 @@ class SystemEquations:
             self.e = self.gamma = ca.SX(0, 1)
         self.holonomic = [i for i, c in enumerate(self.constraints) if c.position is not None]
         self.phi = ca.vertcat(*[self.constraints[i].position for i in self.holonomic]) if self.holonomic else ca.SX(0, 1)
+        self.unit_length_bodies = [b.name for b in bodies if isinstance(b.rotation, UnitQuaternion)]
         self.position_rows = ca.vertcat(self.phi, unit_lengths(bodies))
         self.applied_power = self._applied_power()
         g = ca.DM(model.gravity)

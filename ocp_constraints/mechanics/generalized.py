@@ -71,7 +71,9 @@ class JointCoordinates:
         kept = [eqs.holonomic.index(k) for k in rows if k in eqs.holonomic]
         self.phi = sub(eqs.phi[kept]) if kept else ca.SX(0, 1)
         # A body on a mapped joint has a composed unit quaternion; one on none keeps its own (and its length row).
-        self.position_rows = ca.vertcat(self.phi, unit_lengths([b for b in eqs.bodies if b.name not in self.maps]))
+        own = [b for b in eqs.bodies if b.name not in self.maps]
+        self.unit_length_bodies = [b.name for b in own if b.name in eqs.unit_length_bodies]
+        self.position_rows = ca.vertcat(self.phi, unit_lengths(own))
         pi = self.G @ self.u + self.e
         self.gamma = ca.jtimes(pi, self.q, self.qdot) + ca.jacobian(pi, self.t)
         if self.inputs.numel() and self.nc:

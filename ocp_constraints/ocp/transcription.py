@@ -109,7 +109,34 @@ class Transcription(ElementKinds):
         for which, name, row in self._boundary_rows:
             v = (self.problem.initial_values if which == "initial" else self.problem.final_values)[name]
             lbg[row] = ubg[row] = v
+        for row in self._fixed_length_rows():
+            lbg[row], ubg[row] = -np.inf, np.inf
         return lbg, ubg
+
+    def _fixed_length_rows(self) -> list[int]:
+        """The rows ``|q|^2 = 1`` at ``t_0`` and ``t_f`` of the quaternions whose four components are boundary
+        values there (checked unit before the solve): the values hold the length, and the row again makes the
+        constraint Jacobian rank-deficient. Released (no bounds), not removed: the NLP's shape stays one per
+        mesh. Measured on a free-floating base with an arm (tests/test_ocp_quaternions.py), Radau 7
+        N = 5: 134 IPOPT iterations with the redundant row, 16 with it released (14-16 with other ends given)."""
+        e, lay = self.eqs, self.layout
+        bodies = getattr(e, "unit_length_bodies", [])
+        if not bodies:
+            return []
+        values = getattr(self, "user_problem", self.problem)
+        first = e.nu + e.nc + e.phi.numel()
+        if self.from_speeds:
+            label = self.local[-1].label
+            name = "collocation_point" if len(self._groups()) == 1 else f"collocation_point_{label}"
+            end = (name, sum(1 for local in self.local if local.label == label) * (len(self.local[-1].tau) - 1) - 1)
+        else:
+            end = ("point", lay.n_points - 1)
+        rows = []
+        for (element, instance), given in ((("point", 0), values.initial_values), (end, values.final_values)):
+            for k, body in enumerate(bodies):
+                if all(f"{body}.q{c}" in given for c in "wxyz"):
+                    rows.append(self.block.rows(element, instance) + first + k)
+        return rows
 
     def initial_guess(self) -> np.ndarray:
         """A consistent start from the user's guesses (see :mod:`.guess`): coordinates guessed or

@@ -91,3 +91,56 @@ def test_four_initial_and_three_final_components_pass_the_check():
     ocp.final(dict(zip(("bob.qx", "bob.qy", "bob.qz"), TARGET[1:])))
     d = check_problem(ocp, oc.Radau(4, degree=3))
     assert (d.position_dof, d.speed_dof) == (3, 3)       # a ball joint leaves three rotations
+
+
+def _satellite(coordinates: str):
+    """A free-floating base on a quaternion with an arm on a library hinge, in zero gravity: in joint
+    coordinates the base keeps its quaternion (its length row with it), the arm gets its hinge angle."""
+    model = oc.Model("satellite", gravity=(0.0, 0.0, 0.0))
+    base = model.add_body("base", 10.0, np.diag([1.0, 1.2, 1.5]), rotation="quaternion")
+    arm = model.add_body("arm", 1.0, np.diag([0.01, 0.1, 0.1]), rotation="321")
+    oc.joints.revolute(model, "shoulder", arm.point("S", (-0.5, 0, 0)), axis=(0, 0, 1), other=base.point("S", (0.5, 0, 0)))
+    model.add_torque("motor", arm, ca.vertcat(0, 0, model.add_input("tau")), reaction_body=base)
+    ocp = oc.OptimalControlProblem(model, t_final=2.0, coordinates=coordinates)
+    at_rest = {f"base.{s}": 0.0 for s in ("vbar_x", "vbar_y", "vbar_z", "omega_x", "omega_y", "omega_z")}
+    ocp.initial({"base.x": 0.0, "base.y": 0.0, "base.z": 0.0, "base.qw": 1.0, "base.qx": 0.0, "base.qy": 0.0,
+                 "base.qz": 0.0, **at_rest, "arm.psi": 0.0, "arm.omega_z": 0.0})
+    ocp.final({"arm.psi": 1.0, "arm.omega_z": 0.0, "base.omega_z": 0.0})
+    ocp.minimize_effort()
+    return ocp
+
+
+def test_a_free_floating_quaternion_base_solves_alike_in_joint_and_maximal_coordinates():
+    """Two NLPs (the base's quaternion and the arm's hinge angle; every body's own coordinates and the
+    hinge's multipliers) of one problem reach one optimum, the base's quaternion unit in both."""
+    mesh = oc.Radau(5, degree=7)
+    joint, maximal = (_satellite(c).solve(mesh) for c in ("joint", "maximal"))
+    assert joint.transcription.problem.nlp_coordinates == "joint"
+    for sol in (joint, maximal):
+        q = np.vstack([sol.sample(f"base.q{c}") for c in "wxyz"])
+        assert np.abs(np.linalg.norm(q, axis=0) - 1.0).max() < 1e-9
+    assert joint.objective == pytest.approx(maximal.objective, rel=1e-8)      # measured 3e-11 apart
+    assert joint.sample("base.qz")[-1] == pytest.approx(maximal.sample("base.qz")[-1], abs=1e-9)
+    assert abs(joint.sample("base.qz")[-1]) > 0.1         # the reaction turns the base: a real test of the coupling
+
+
+@pytest.mark.parametrize("coordinates", ["maximal", "joint"])
+@pytest.mark.parametrize("mesh", [oc.Radau(4, degree=3), oc.Radau(3, degree=7), oc.Radau(mesh=(0, 0.3, 1.0), degrees=(5, 3))],
+                         ids=["radau3", "radau7", "hp"])
+def test_the_rows_released_at_the_ends_are_the_given_quaternions_lengths(coordinates, mesh):
+    """Four given components at an end hold the length there: that end's row |q|^2 = 1 is released (a
+    redundant row made IPOPT take 134 iterations where 16 do). The released rows are those rows: the NLP's
+    constraint function there equals |q|^2 - 1 of the end's quaternion, at any decision vector."""
+    ocp = _satellite(coordinates)
+    ocp.final({"base.qw": 1.0, "base.qx": 0.0, "base.qy": 0.0, "base.qz": 0.0})
+    tr = ocp.transcription(mesh)
+    rows = tr._fixed_length_rows()
+    w = np.random.default_rng(0).normal(size=tr.nlp["x"].numel())
+    g = np.asarray(ca.Function("g", [tr.nlp["x"]], [tr.nlp["g"]])(w)).ravel()
+    X = np.asarray(tr.layout.split(w)[0])
+    names = getattr(tr.eqs, "coordinate_names", None) or tr.eqs.model.coordinate_names     # joint NLP: its own
+    at = [names.index(f"base.q{c}") for c in "wxyz"]
+    assert len(rows) == 2
+    np.testing.assert_allclose(g[rows], [X[at, 0] @ X[at, 0] - 1.0, X[at, -1] @ X[at, -1] - 1.0], rtol=1e-12)
+    lbg, ubg = tr._boundary_values()
+    assert np.all(np.isinf(lbg[rows])) and np.all(np.isinf(ubg[rows]))
