@@ -150,10 +150,18 @@ class BlockNLP:
         """The derivative functions of ``el.function`` (one instance) and their sparsity triplets:
         ``jac`` (rows, z), ``grad`` (cost, z), ``hess`` (lower triangle of the Lagrangian's, with inputs
         z, c, row multipliers, cost multiplier); None where structurally zero. Cached by the function's
-        serialization, which fixes the function completely (equal keys: the same function)."""
-        key = el.function.serialize() if self._cache is not None else None
-        if key is not None and key in self._cache:
-            return self._cache[key]
+        serialization, which fixes the function completely (equal keys: the same function); a function
+        object met before (an element kind kept by the transcription) is found by identity, unserialized."""
+        if self._cache is None:
+            key = None
+        else:
+            seen = self._cache.get(("object", id(el.function)))
+            if seen is not None and seen[0] is el.function:
+                return seen[1]
+            key = el.function.serialize()
+            if key in self._cache:
+                self._remember(el.function, self._cache[key])
+                return self._cache[key]
         nr = el.rows_per_instance
         z, c = ca.SX.sym("z", el.function.sparsity_in(0)), ca.SX.sym("c", el.function.sparsity_in(1))
         lam, lam_f = ca.SX.sym("lam", nr), ca.SX.sym("lam_f")
@@ -173,10 +181,15 @@ class BlockNLP:
         if H.nnz():
             out["hess"] = (function("hess", H, [z, c, lam, lam_f]), *(np.asarray(a) for a in H.sparsity().get_triplet()))
         if key is not None:
-            while len(self._cache) >= CACHED_KINDS:
+            while len(self._cache) >= 2 * CACHED_KINDS:
                 del self._cache[next(iter(self._cache))]
             self._cache[key] = out
+            self._remember(el.function, out)
         return out
+
+    def _remember(self, function: ca.Function, derivatives: dict) -> None:
+        # The function is kept with its entry, so its id is not reused while the entry lives.
+        self._cache[("object", id(function))] = (function, derivatives)
 
     @property
     def nlp(self) -> dict:
