@@ -48,8 +48,8 @@ def profile(name: str, tolerance: float) -> dict:
     st = pstats.Stats(prof)
     # A JointTranscription's __init__ runs the Transcription's inside it: the larger of the two is the builds' CPU.
     build = max(_cumulative(st, "ocp/transcription.py", "__init__"), _cumulative(st, "ocp/joint_transcription.py", "__init__"))
-    point_functions = _cumulative(st, "ocp/transcription.py", "_point_functions")
-    elements = _cumulative(st, "ocp/transcription.py", "_elements")
+    point_functions = _cumulative(st, "ocp/transcription_elements.py", "_point_functions")
+    elements = _cumulative(st, "ocp/transcription_elements.py", "_elements")
     differentiate = _cumulative(st, "ocp/nlp_assembly.py", "_differentiate")
     # Inside _differentiate: the symbolic derivatives (mesh-independent) vs the mapped functions (mesh-dependent).
     symbolic = sum(v[3] for k, v in st.stats.items() if "casadi" in k[0] and k[2] in ("jacobian", "hessian", "gradient", "tril"))
@@ -57,7 +57,7 @@ def profile(name: str, tolerance: float) -> dict:
     nlpsol = sum(v[3] for k, v in st.stats.items() if "casadi" in k[0] and k[2] == "nlpsol")
     return {"total": total, "build": build, "point_functions": point_functions, "elements": elements, "block": block, "differentiate": differentiate,
             "symbolic_derivatives": symbolic, "nlpsol": nlpsol,
-            "solves": sum(2 - bool(h.get("solved_as_companion")) for h in sol.mesh_refinement["history"]),
+            "solves": sum(h["solves"] for h in sol.mesh_refinement["history"]),
             "points": sol.transcription.scheme.point_count}
 
 

@@ -48,7 +48,7 @@ def build_share(runs: int) -> None:
                 sol = problem.solve(tolerance=tol)
                 totals.append(time.process_time() - cpu)
                 builds.append(spent[0])
-                solves = sum(2 - bool(h.get("solved_as_companion")) for h in sol.mesh_refinement["history"])
+                solves = sum(h["solves"] for h in sol.mesh_refinement["history"])
             share = statistics.median(b / t for b, t in zip(builds, totals))
             print(f"swing-up tol {tol:g} ({sol.mesh_refinement['coordinates']} coordinates, {solves} solves): CPU "
                   f"{statistics.median(totals):.3f} s, transcription builds {statistics.median(builds):.3f} s ({share:.0%})")
