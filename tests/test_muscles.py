@@ -24,7 +24,8 @@ def paths():
 
 
 def test_moment_arms_against_opensim_sweep(paths):
-    """Fitted -dL/dq against OpenSim 4.6 (stored preprocessing output) at knee angles -75 ... 10 deg."""
+    """Fitted -dL/dq against OpenSim 4.6's computeMomentArm (stored preprocessing output) at knee angles -75 ... 10
+    deg, the gastrocnemii included: their fits follow computeMomentArm, not the kinked length (issue 15)."""
     d = json.loads(DATA_FILE.read_text())
     sweep = np.asarray(d["sweep_knee_flexion"])
     ki = paths.coordinates.index("knee_flexion")
@@ -32,13 +33,13 @@ def test_moment_arms_against_opensim_sweep(paths):
     osim = np.asarray(d["sweep_moment_arms_opensim"]["knee_flexion"])
     fd = np.asarray(d["sweep_moment_arm_knee_fd_coupled_opensim"])
     worst = {}
-    for m in KNEE_MUSCLES:
+    for m in KNEE_MUSCLES + ["gaslat", "gasmed"]:
         i, j = d["sweep_muscles"].index(m), paths.muscles.index(m)
         worst[m] = 1000 * np.abs(R[:, j] - osim[:, i]).max()
-    assert max(worst.values()) < 1.1, worst          # measured 1.02 mm (recfem); vasti <= 0.51 mm
-    for m in ("gaslat", "gasmed"):                    # wrapping kink at the condyles: against OpenSim's own dL/dq
-        i, j = d["sweep_muscles"].index(m), paths.muscles.index(m)
-        assert 1000 * np.abs(R[:, j] - fd[:, i]).max() < 9.0
+    assert max(worst.values()) < 1.2, worst          # measured 1.06 mm (bflh); gastrocnemii 0.99 / 0.44 mm
+    for m in ("gaslat", "gasmed"):                    # OpenSim's own length is kinked there: its dL/dq is 24 mm off
+        i = d["sweep_muscles"].index(m)
+        assert 1000 * np.abs(osim[:, i] - fd[:, i]).max() > 20.0
 
 
 LIVE = textwrap.dedent('''
@@ -157,10 +158,12 @@ def test_quadriceps_unit_lengths_are_the_patella_paths_of_opensim(paths):
     the model's ``optimal_fiber_length``/``tendon_slack_length`` belong to the units. Live
     OpenSim, its own process: our unit lengths within 0.5 mm, the force path 9 to 11 cm longer.
     """
-    assert paths.units == ["recfem", "vasint", "vaslat", "vasmed"]
+    assert [m for m in paths.units if m in ("recfem", "vasint", "vaslat", "vasmed")] == ["recfem", "vasint", "vaslat",
+                                                                                         "vasmed"]
+    quadriceps = ["recfem", "vasint", "vaslat", "vasmed"]
     if importlib.util.find_spec("opensim") is None:
         pytest.skip("the optional 'opensim' package is not installed: live unit-length check not run")
-    run = subprocess.run([sys.executable, "-c", UNITS, str(JW_MODEL), ",".join(paths.units)],
+    run = subprocess.run([sys.executable, "-c", UNITS, str(JW_MODEL), ",".join(quadriceps)],
                          capture_output=True, text=True, timeout=120)
     assert run.returncode == 0, run.stderr[-2000:]
     live = json.loads(run.stdout.strip().splitlines()[-1])

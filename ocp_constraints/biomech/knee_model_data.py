@@ -15,8 +15,9 @@ For a model in neither, the data are built with the documented preprocessing:
 
 * muscle paths: OpenSim's own path lengths sampled over the range of motion, in its own
   process (``python -m ocp_constraints.biomech.knee_paths_opensim``; needs the optional
-  ``opensim`` extra, ``pip install -e ".[opensim]"``), then the polynomial fits of
-  :func:`~.knee_muscles.fit_paths` (the same route as ``scripts/knee_muscle_fits.py``);
+  ``opensim`` extra, ``pip install -e ".[opensim]"``), with OpenSim's moment arms
+  (``computeMomentArm``), then the joint fits of :func:`~.knee_path_fits.fit_paths` (the same
+  route as ``scripts/knee_muscle_fits.py``);
 * contact geometry: the circle and plane fits of :func:`~.knee_contact.implant_geometry`
   from the implant's contact meshes (``femPoints_188.csv``, ``tibPoints_100.csv``,
   ``facesTib{1,2}_100.csv``), which only the user can give (``knee --implant-meshes DIR``).
@@ -41,6 +42,7 @@ from ..errors import KneeError, OcpConstraintsError
 DATA_DIR = Path(__file__).resolve().parent / "data"
 INDEX_FILE = DATA_DIR / "knee_models.json"
 PATHS_NAME, GEOMETRY_NAME = "muscle_paths.json", "implant_geometry.json"
+HOLDOUT_STORED = 60     # held-out poses whose OpenSim moment arms are stored with the fits (tests)
 
 
 @dataclass
@@ -131,10 +133,49 @@ def _write_geometry(meshes, out: Path) -> None:
                                "parameters": g.as_params()}, indent=1) + "\n")
 
 
-def build_muscle_paths(model, out: Path, samples: int = 4000, seed: int = 7) -> Path:
-    """OpenSim's path lengths of ``model`` (own process), fitted and written to ``out``."""
-    from .knee_muscles import fit_paths, fit_units
+def holdout_arms(raw: dict, count: int = HOLDOUT_STORED) -> dict:
+    """The first ``count`` held-out poses where OpenSim's moment arms were sampled, and those arms (7 digits)."""
+    n_fit = int(0.8 * len(raw["samples"]))
+    rows = [r for r, k in enumerate(raw["arm_indices"]) if k >= n_fit][:count]
+    return {"coordinates": raw["coordinates"],
+            "poses": [[float(f"{v:.7g}") for v in raw["samples"][raw["arm_indices"][r]]] for r in rows],
+            "moment_arms": {m: {"coordinates": a["coordinates"],
+                                "values": [[float(f"{v:.7g}") for v in a["values"][r]] for r in rows]}
+                            for m, a in raw["moment_arms"].items()}}
 
+
+def build_muscle_paths(model, out: Path, samples: int = 4000, seed: int = 7, raw: dict | None = None) -> Path:
+    """OpenSim's path lengths and moment arms of ``model`` (own process; or ``raw``, a sampling already
+    made by :mod:`.knee_paths_opensim` for this model), fitted and written to ``out``."""
+    from .knee_path_fits import fit_paths, fit_units
+
+    if raw is None:
+        raw = sample_muscle_paths(model, samples, seed)
+    try:
+        fits = fit_paths(raw)
+        units = fit_units(raw, fits)
+    except (KeyError, ValueError, OcpConstraintsError) as exc:
+        raise KneeError(f"{model}: cannot fit the sampled muscle paths: {exc}") from exc
+    data = {"source": "OpenSim path lengths and moment arms (ocp_constraints.biomech.knee_paths_opensim), "
+                      "polynomial fits (ocp_constraints/biomech/knee_path_fits.py)",
+            "opensim_version": raw["opensim_version"], "model": Path(str(model)).name,
+            "model_sha256": model_sha256(model), "samples": len(raw["samples"]), "seed": raw.get("seed", seed),
+            "knee_ty": raw["knee_ty"], "patella_coupling": raw["patella_coupling"], "fits": fits,
+            "unit_suffix": raw["unit_suffix"], "unit_fits": units, "sweep_knee_flexion": raw["sweep_knee_flexion"],
+            "sweep_muscles": raw["muscles"], "sweep_moment_arms_opensim": raw["sweep_moment_arms"],
+            "sweep_moment_arm_knee_fd_coupled_opensim": raw["sweep_moment_arm_knee_fd_coupled"],
+            "unspanned_moment_arms_max_opensim": raw.get("unspanned_moment_arms_max", {})}
+    if "moment_arms" in raw:       # OpenSim's moment arms at held-out poses (not fitted on), for the tests
+        data["holdout_moment_arms_opensim"] = holdout_arms(raw)
+    out.parent.mkdir(parents=True, exist_ok=True)
+    tmp_out = out.with_suffix(".tmp")
+    tmp_out.write_text(json.dumps(data))
+    tmp_out.replace(out)
+    return out
+
+
+def sample_muscle_paths(model, samples: int = 4000, seed: int = 7) -> dict:
+    """Run :mod:`.knee_paths_opensim` on ``model`` in its own process and return its output."""
     with tempfile.TemporaryDirectory() as tmp:
         raw_path = Path(tmp) / "raw.json"
         proc = subprocess.run([sys.executable, "-m", "ocp_constraints.biomech.knee_paths_opensim", str(model),
@@ -142,21 +183,4 @@ def build_muscle_paths(model, out: Path, samples: int = 4000, seed: int = 7) -> 
         if proc.returncode != 0:
             tail = (proc.stderr.strip().splitlines() or ["(no message)"])[-1]
             raise KneeError(f"{model}: OpenSim's muscle-path sampling failed: {tail}")
-        raw = json.loads(raw_path.read_text())
-    try:
-        fits, units = fit_paths(raw), fit_units(raw)
-    except (KeyError, ValueError, OcpConstraintsError) as exc:
-        raise KneeError(f"{model}: cannot fit the sampled muscle paths: {exc}") from exc
-    data = {"source": "OpenSim path lengths (ocp_constraints.biomech.knee_paths_opensim), polynomial fits "
-                      "(ocp_constraints/biomech/knee_muscles.py)",
-            "opensim_version": raw["opensim_version"], "model": Path(str(model)).name,
-            "model_sha256": model_sha256(model), "samples": samples, "seed": seed, "knee_ty": raw["knee_ty"],
-            "patella_coupling": raw["patella_coupling"], "fits": fits, "unit_suffix": raw["unit_suffix"],
-            "unit_fits": units, "sweep_knee_flexion": raw["sweep_knee_flexion"], "sweep_muscles": raw["muscles"],
-            "sweep_moment_arms_opensim": raw["sweep_moment_arms"],
-            "sweep_moment_arm_knee_fd_coupled_opensim": raw["sweep_moment_arm_knee_fd_coupled"]}
-    out.parent.mkdir(parents=True, exist_ok=True)
-    tmp_out = out.with_suffix(".tmp")
-    tmp_out.write_text(json.dumps(data))
-    tmp_out.replace(out)
-    return out
+        return json.loads(raw_path.read_text())

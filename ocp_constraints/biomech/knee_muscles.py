@@ -2,13 +2,13 @@
 
 OpenSim computes a muscle's path through via points and over wrap surfaces (cylinders,
 ellipsoids); the knee extensors wrap over the femoral component and the patella, the
-gastrocnemii over the condyles. Instead of re-implementing wrapping, the muscle-tendon
-length ``L(q)`` of every right-leg muscle is fitted, once, by a polynomial in the
-coordinates it spans, to OpenSim's own path lengths over the range of motion
-(``scripts/knee_muscle_fits.py``: OpenSim runs in its own process, the fit is stored in
-``ocp_constraints/biomech/data/jw_knee_muscle_paths.json``). Moment arms follow by automatic
-differentiation, ``r_c = -dL/dq_c`` (virtual work: a tension ``F`` gives the generalized
-force ``F r_c``, paper eqs. 35-41), for the primary coordinates (rad -> m) and for the
+gastrocnemii over the condyles. Instead of re-implementing wrapping, the force path
+``L(q)`` of every right-leg muscle is fitted, once, by a polynomial in the coordinates it
+spans, to OpenSim's own path lengths and moment arms (``computeMomentArm``) over the range
+of motion (:mod:`.knee_path_fits`; ``scripts/knee_muscle_fits.py``: OpenSim runs in its own
+process, the fit is stored in ``ocp_constraints/biomech/data/jw_knee_muscle_paths.json``).
+Moment arms follow by differentiation, ``r_c = -dL/dq_c`` (virtual work: a tension ``F``
+gives the generalized force ``F r_c``, paper eqs. 35-41), for the primary coordinates (rad -> m) and for the
 five locked knee directions (``knee_adduction``, ``knee_rotation`` in m, ``knee_tx``,
 ``knee_ty``, ``knee_tz`` dimensionless: the share of the tension along that axis).
 
@@ -19,8 +19,7 @@ of the quadriceps are those of the coupled model (as OpenSim's ``computeMomentAr
 Basis (scaled coordinates ``x = (q - centre) / half_range``): all monomials of the
 spanned primary coordinates up to total degree ``DEGREE``, each secondary coordinate
 times the monomials of degree <= ``SECONDARY_DEGREE`` of the primaries, and the squares
-of the secondaries. Samples where OpenSim's path jumps (wrapping glitches: residual above
-six times the median and above 1 mm) are dropped and the fit repeated; their number is stored.
+of the secondaries.
 """
 from __future__ import annotations
 
@@ -77,55 +76,6 @@ def basis(x, E: np.ndarray):
         return out if isinstance(out, (ca.SX, ca.MX)) else ca.SX(out)
     x = np.atleast_2d(x)
     return np.prod(x[:, None, :] ** E[None, :, :], axis=2)
-
-
-def _fit_length(X, y, spans, names, centre, half, n_fit) -> dict:
-    """Least-squares fit of one sampled length ``y`` over the coordinates in ``spans``."""
-    prim = [c for c in PRIMARY if c in spans]
-    sec = [c for c in SECONDARY if c in spans]
-    cols = [names.index(c) for c in prim + sec]
-    E = exponents(len(prim), len(sec))
-    Z = (X[:, cols] - centre[cols]) / half[cols]
-    B = basis(Z, E)
-    keep = np.arange(n_fit)
-    for _ in range(3):    # drop OpenSim's wrapping glitches (isolated jumps of the path), refit
-        coef, *_ = np.linalg.lstsq(B[keep], y[keep], rcond=None)
-        res = np.abs(B[:n_fit] @ coef - y[:n_fit])
-        keep = np.flatnonzero(res <= max(6 * np.median(res), 1e-3))
-    err = B[n_fit:] @ coef - y[n_fit:]
-    good = np.abs(err) <= max(6 * np.median(np.abs(err)), 1e-3)
-    return {"coordinates": prim + sec, "exponents": E.tolist(), "coefficients": coef.tolist(),
-            "centre": centre[cols].tolist(), "half_range": half[cols].tolist(),
-            "holdout_max_length_error_m": float(np.abs(err[good]).max()),
-            "holdout_outliers": int((~good).sum()), "fit_outliers_dropped": int(n_fit - len(keep))}
-
-
-def fit_paths(raw: dict) -> dict:
-    """Least-squares fits of OpenSim's sampled lengths (``raw`` from the OpenSim script)."""
-    names = raw["coordinates"]
-    X, L = np.asarray(raw["samples"]), np.asarray(raw["lengths"])
-    lo, hi = X.min(0), X.max(0)
-    centre, half = (lo + hi) / 2, np.maximum((hi - lo) / 2, 1e-12)
-    n_fit = int(0.8 * len(X))                      # last 20 % held out for the accuracy check
-    return {m: _fit_length(X, L[:, i], raw["spans"][m], names, centre, half, n_fit)
-            for i, m in enumerate(raw["muscles"])}
-
-
-def fit_units(raw: dict) -> dict:
-    """Fits of the muscle-tendon-unit lengths of the muscles whose force path is longer (quadriceps).
-
-    ``raw["units"]`` (from the OpenSim script): muscles whose path runs on over the
-    patella to the tibia; ``raw["unit_lengths"]`` the lengths of their twins
-    ``<name>_withreallength`` ending on the patella, the muscle-tendon unit that the
-    model's ``optimal_fiber_length`` and ``tendon_slack_length`` describe.
-    """
-    names = raw["coordinates"]
-    X, L = np.asarray(raw["samples"]), np.asarray(raw.get("unit_lengths", np.zeros((0, 0))))
-    lo, hi = X.min(0), X.max(0)
-    centre, half = (lo + hi) / 2, np.maximum((hi - lo) / 2, 1e-12)
-    n_fit = int(0.8 * len(X))
-    return {m: _fit_length(X, L[:, i], raw["unit_spans"][m], names, centre, half, n_fit)
-            for i, m in enumerate(raw.get("units", []))}
 
 
 @dataclass

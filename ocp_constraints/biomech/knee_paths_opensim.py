@@ -13,6 +13,16 @@ ligament). Their muscle-tendon units, to which ``optimal_fiber_length`` and
 ``<name>_withreallength`` (same origin and parameters, no patellar-ligament segment). The
 twins' lengths are sampled at the same poses (``unit_lengths``, ``unit_spans``).
 
+OpenSim's own moment arms (``computeMomentArm``: the generalized force of a unit tension,
+the way OpenSim applies the muscle's force) are sampled too, for every muscle and every
+coordinate its path spans, at ``ARM_FIT`` of the poses the lengths are fitted on and at
+``ARM_HOLDOUT`` of the held-out ones (``arm_indices``, ``moment_arms``). They are needed
+because for wrapped paths they are not the derivative of the path length: the gastrocnemii
+wrap over an ellipsoid on the femur and a cylinder on the tibia, and their length has a
+kink where the wrapping switches (near 35 and 20 degrees of knee flexion), so that
+``-dL/dq`` differs from ``computeMomentArm`` by up to 25 mm in knee flexion (issue 15,
+C3). :func:`~.knee_muscles.fit_paths` fits lengths and moment arms jointly.
+
 A model without the coordinates sampled below exits with status 3 and a message naming them.
 """
 import json
@@ -29,6 +39,7 @@ KNEE_TY = 0.042            # the JW model's default knee_ty (m); IK holds it the
 PATELLA = ("patfem_flexion", "knee_flexion", 1.57)   # CoordinateCouplerConstraint patfem_flexion_con
 UNIT = "_withreallength"    # recfem/vasint/vaslat/vasmed ending on the patella: their muscle-tendon units (below)
 SKIP = (UNIT,)
+ARM_FIT, ARM_HOLDOUT = 0.3, 0.1    # fractions of the samples where computeMomentArm is sampled (fit / held out)
 TRUNK = ("ercspn", "intobl", "extobl")
 
 
@@ -104,6 +115,30 @@ def main(model_path, out_path, n=4000, seed=7):
             for i, m in enumerate(units):
                 if d[i] > 1e-7 and c not in unit_spans[m]:
                     unit_spans[m].append(c)
+    # OpenSim's moment arms about every spanned coordinate, at the first ARM_FIT * n poses (inside the
+    # first 80 %, which the fit uses) and at ARM_HOLDOUT * n poses of the held-out last 20 %
+    n_fit = int(0.8 * n)
+    arm_idx = list(range(min(int(ARM_FIT * n), n_fit))) + list(range(n_fit, min(n_fit + int(ARM_HOLDOUT * n), n)))
+    pairs = [(ms.get(m), cs.get(c)) for m in muscles for c in names if c in spans[m]]
+    A = np.zeros((len(arm_idx), len(pairs)))
+    for r, k in enumerate(arm_idx):
+        pose(dict(zip(names, X[k])))
+        A[r] = [m.computeMomentArm(state, c) for m, c in pairs]
+    arm_columns, col = {}, 0
+    for m in muscles:
+        spanned = [c for c in names if c in spans[m]]
+        arm_columns[m] = {"coordinates": spanned, "values": A[:, col:col + len(spanned)].tolist()}
+        col += len(spanned)
+    # moment arms about coordinates the length does not depend on (OpenSim's force application can give
+    # them one, e.g. the gastrocnemii about the hip near extension): their largest values, for the record
+    unspanned = {m: {} for m in muscles}
+    for k in range(6):
+        pose(dict(zip(names, X[2 * k])))
+        for m in muscles:
+            for c in names:
+                if c not in spans[m]:
+                    v = abs(ms.get(m).computeMomentArm(state, cs.get(c)))
+                    unspanned[m][c] = max(unspanned[m].get(c, 0.0), v)
     # moment-arm sweep: knee angles, other coordinates at 0 (knee_ty at its default)
     sweep = np.radians(np.arange(-75.0, 10.01, 5.0))
     arms = {c: np.zeros((len(sweep), len(muscles))) for c in ("knee_flexion", "hip_flexion", "ankle_angle")}
@@ -123,7 +158,8 @@ def main(model_path, out_path, n=4000, seed=7):
            "sweep_knee_flexion": sweep.tolist(),
            "sweep_moment_arms": {c: a.tolist() for c, a in arms.items()},
            "sweep_moment_arm_knee_fd_coupled": fd.tolist(), "seed": seed,
-           "units": units, "unit_suffix": UNIT, "unit_lengths": LU.tolist(), "unit_spans": unit_spans}
+           "units": units, "unit_suffix": UNIT, "unit_lengths": LU.tolist(), "unit_spans": unit_spans,
+           "arm_indices": arm_idx, "moment_arms": arm_columns, "unspanned_moment_arms_max": unspanned}
     with open(out_path, "w") as f:
         json.dump(out, f)
 
