@@ -50,6 +50,7 @@ from .error_estimate import DECAY_LIMIT, UNRESOLVED_OBJECTIVE, UNRESOLVED_STATE,
 from .mesh_companions import (COMPANION_EXTRA, MAX_DEGREE, _degrees, _ends, companion_of, covered, finer,  # noqa: F401
                               finer_at_hand, pilot_of, uniform_step)
 from .schemes import Radau
+from .switch_detection import detect_switches, jump_windows, split_points, touched
 
 MIN_DEGREE = 3
 MAX_REFINEMENTS = 10
@@ -60,6 +61,7 @@ MAX_REFINEMENTS = 10
 SNAP_POINTS = 1.5
 MAX_PIECES = 8          # an interval is split into at most this many in one refinement
 MIN_INTERVAL = 1e-6     # fraction of the horizon below which an interval is not split further
+ROUGH_MIN = 1e-3        # fraction of the horizon below which a rough interval is not halved (refine)
 GATED = ("states", "multipliers")
 START = {"intervals": 10, "degree": 3}
 # A warm-started solve begins near its optimum: a small first barrier parameter saves IPOPT the
@@ -94,7 +96,7 @@ def start_scheme(method) -> Radau:
 
 
 def refine(scheme: Radau, ratio: np.ndarray, parents: dict | None = None,
-           nonsmooth: np.ndarray | None = None) -> tuple[Radau, dict]:
+           nonsmooth: np.ndarray | None = None, switches: dict | None = None) -> tuple[Radau, dict]:
     """The next mesh, and each new interval's parent ``(ends) -> ratio``.
 
     ``ratio[k]`` is interval ``k``'s estimate over the tolerance (the largest of the gated
@@ -106,18 +108,34 @@ def refine(scheme: Radau, ratio: np.ndarray, parents: dict | None = None,
     the error's fall of about 4x per degree predicts, ``d + ceil(log(ratio) / log 4)``, if that is at
     most :data:`MAX_DEGREE`; else it is split at :data:`MAX_DEGREE` into the number of pieces that
     the rest of the ratio needs (error ~ h^MAX_DEGREE), 2 to :data:`MAX_PIECES`.
+
+    ``switches[k]``: fractions of the horizon where a bound or path constraint switches inside interval
+    ``k`` (:func:`.switch_detection.split_points`). Such an interval is split *at* them, at its degree,
+    whatever its ratio: each piece is then a smooth arc whose companion estimate holds, where halving
+    would narrow the switch down only by two per refinement (minimum-time swing-up at 1e-3: 10
+    halvings, the switch still inside an interval, true error 1.7x the estimate).
     """
     mesh, degrees = scheme.mesh_fractions, _degrees(scheme)
     new_mesh, new_degrees, born = [0.0], [], {}
     for k, (a, b) in enumerate(zip(mesh[:-1], mesh[1:])):
         d, r = int(degrees[k]), float(ratio[k])
+        if k in (switches or {}):
+            pieces = [*switches[k], b]
+            for lo, hi in zip([a, *pieces[:-1]], pieces):
+                born[_ends(lo, hi)] = max(r, 1.0)
+            new_mesh.extend(pieces)
+            new_degrees.extend([d] * len(pieces))
+            continue
         if r <= 1.0:
             new_mesh.append(b)
             new_degrees.append(d)
             continue
         needed = d + max(1, math.ceil(math.log(r) / math.log(4.0)))
         parent = (parents or {}).get(_ends(a, b))
-        rough = parent is not None and r > parent / 10.0 and (nonsmooth is None or bool(nonsmooth[k]))
+        # Not below ROUGH_MIN: a switch no bound locates is narrowed that far by halving; shorter, the
+        # NLP's inputs and multipliers next to a switch grow noisier, not smoother (see .switch_detection.touched).
+        rough = (parent is not None and r > parent / 10.0 and (nonsmooth is None or bool(nonsmooth[k]))
+                 and b - a > ROUGH_MIN)
         if b - a <= MIN_INTERVAL:
             pieces, degree = [b], min(d + 1, MAX_DEGREE)
         elif rough:
@@ -163,17 +181,33 @@ def _timed_solve(problem, scheme: Radau, ipopt_options: dict, warm_start, progre
     return sol, elapsed, cpu_used
 
 
-def _flag_nonsmooth(sol, tol: float, record: dict) -> None:
+def _flag_nonsmooth(sol, tol: float, record: dict, windows=()) -> None:
     """Withdraw "met" where the estimate cannot be trusted (and say so where it is not met either):
     intervals whose inputs or multipliers are not smooth (their Legendre coefficients fall no faster
     than half a step's, :func:`.error_estimate.legendre_decay`) and whose polynomial's last term is
     larger than the tolerance. There a jump (a switch of a bang-bang input) sits inside the
     interval, the companion resolves it no better than the solution, and their difference is no
     upper bound (minimum-time swing-up: true state error 2.5x the estimate; the bench). The
-    intervals are named in ``nonsmooth_intervals`` and the message; the solution is kept."""
+    intervals are named in ``nonsmooth_intervals`` and the message; the solution is kept.
+
+    Except inside ``windows`` (:func:`.switch_detection.jump_windows`): there a jump between an
+    input's bounds was located from the bounds and has a mesh point within its bracket; the states'
+    estimate covers it (continuous, compared everywhere), the inputs and multipliers are left out of
+    theirs there, and the record says so (``jump_windows``, and the message)."""
     decay, tail = legendre_decay(sol)
     mesh = sol.transcription.scheme.mesh_fractions
-    bad = np.flatnonzero((decay > DECAY_LIMIT) & (tail > tol))
+    mid = (mesh[:-1] + mesh[1:]) / 2
+    in_window = np.zeros(len(mid), bool)
+    for lo, hi in windows:
+        in_window |= (mid > lo) & (mid < hi)
+    if windows:
+        merged = sorted({(round(lo, 9), round(hi, 9)) for lo, hi in windows})
+        record["jump_windows"] = [[float(lo), float(hi)] for lo, hi in merged]
+        record["message"] += (f"; the inputs and multipliers jump (bang-bang) within {len(merged)} window(s) at fractions "
+                              + ", ".join(f"{lo:.5g}-{hi:.5g}" for lo, hi in merged[:4])
+                              + " of the horizon: located from the bounds with a mesh point inside, their estimate "
+                              "leaves these windows out (their error there is the jump's size), the states' does not")
+    bad = np.flatnonzero((decay > DECAY_LIMIT) & (tail > tol) & ~in_window)
     if not len(bad):
         return
     record["nonsmooth_intervals"] = [[float(mesh[k]), float(mesh[k + 1])] for k in bad]
@@ -185,6 +219,22 @@ def _flag_nonsmooth(sol, tol: float, record: dict) -> None:
         f"step's, up to {decay[bad].max():.2f} of it); a higher degree resolves a jump no better, so the "
         f"estimate is no upper bound there. Put a mesh point at the switch (Radau(mesh=...)) or accept the error "
         f"near it"))
+
+
+def _nonsmooth_splits(sol, tol: float, windows=()) -> dict[int, list[float]]:
+    """Where the estimate is met but not trusted (:func:`_flag_nonsmooth`: inputs or multipliers not
+    smooth, their last Legendre term above ``tol``, outside the jump ``windows``): each such interval
+    halved, for :func:`refine`. No bound located a switch there, so the middle; the next solution says
+    whether a polynomial follows each half (rolling-disk drive at 1e-3: the first interval, its friction
+    cone active up to a mesh point, decay 0.50 of a step's at degree 3)."""
+    decay, tail = legendre_decay(sol)
+    mesh = sol.transcription.scheme.mesh_fractions
+    mid = (mesh[:-1] + mesh[1:]) / 2
+    out = {}
+    for k in np.flatnonzero((decay > DECAY_LIMIT) & (tail > tol)):
+        if not any(lo < mid[k] < hi for lo, hi in windows) and mesh[k + 1] - mesh[k] > 2 * MIN_INTERVAL:
+            out[int(k)] = [float(mid[k])]
+    return out
 
 
 def solve_to_tolerance(problem, tolerance, method=None, ipopt_options: dict | None = None, warm_start=None, *,
@@ -247,7 +297,9 @@ def solve_to_tolerance(problem, tolerance, method=None, ipopt_options: dict | No
             raise
         total += t_sol + t_comp
         total_cpu += c_sol + c_comp
-        est = estimate_error(sol, companion)
+        found = detect_switches(sol)        # bounds switching: jumps left out of the multipliers' estimate
+        windows = jump_windows(found + detect_switches(companion), scheme.mesh_fractions)
+        est = estimate_error(sol, companion, windows=windows, switches=found)
         if judge is None:
             entry.update(companion_iterations=companion.iterations, companion_time_s=t_comp, companion_cpu_s=c_comp)
         entry.update(**est.as_dict())
@@ -266,10 +318,15 @@ def solve_to_tolerance(problem, tolerance, method=None, ipopt_options: dict | No
             new, parents, solved = uniform_step(companion.transcription.scheme), None, None
             scheme, warm = new, companion
             continue
-        if all(est.totals[q] <= tol for q in GATED):
+        # Switches inside intervals (switch_detection): there the estimate is no bound; split at them.
+        met = all(est.totals[q] <= tol for q in GATED)
+        switches = split_points(found, scheme.mesh_fractions, MIN_INTERVAL, tol, ratio) or (
+            _nonsmooth_splits(sol, tol, windows) if met and r < max_refinements else {})
+        entry["switches"] = [f for k in sorted(switches) for f in switches[k]]
+        if met and not switches:
             record.update(met=True, message=f"estimated error at most {tol:g} after {r} refinements "
                                             f"({scheme.intervals} intervals, {scheme.point_count} points)")
-            _flag_nonsmooth(sol, tol, record)
+            _flag_nonsmooth(sol, tol, record, windows)
             break
         if r == max_refinements:
             record["message"] = (f"estimate still above {tol:g} after {r} refinements (states "
@@ -282,16 +339,16 @@ def solve_to_tolerance(problem, tolerance, method=None, ipopt_options: dict | No
                 spots = ", ".join(f"{a:.4g}-{b:.4g}" for a, b in record["rough_intervals"][:4])
                 record["message"] += (f"; the estimate stays above it on intervals that refinement does not improve "
                                       f"(a switch: inputs and multipliers jump there), at fractions {spots} of the horizon")
-            _flag_nonsmooth(sol, tol, record)
+            _flag_nonsmooth(sol, tol, record, windows)
             break
         # Rough intervals (see refine): where the solution switches; a jump of the inputs and
         # multipliers there keeps their largest error near the jump's size at any mesh.
         mesh = scheme.mesh_fractions
-        nonsmooth = legendre_decay(sol)[0] > DECAY_LIMIT
+        nonsmooth = (legendre_decay(sol)[0] > DECAY_LIMIT) & ~touched(found, mesh)   # not rough: a located switch
         rough = [[float(a), float(b)] for a, b, q, j in zip(mesh[:-1], mesh[1:], ratio, nonsmooth)
                  if q > 1.0 and j and (parents or {}).get(_ends(a, b), np.inf) < 10.0 * q]
         entry["rough_intervals"] = rough
-        new, parents = refine(scheme, ratio, parents, nonsmooth)
+        new, parents = refine(scheme, ratio, parents, nonsmooth, switches)
         if new == scheme:
             record["message"] = (f"estimate above {tol:g} on intervals that cannot be refined further "
                                  f"(shorter than {MIN_INTERVAL:g} of the horizon at degree {MAX_DEGREE})")

@@ -1,0 +1,276 @@
+"""Where a solution switches inside a mesh interval, read from the NLP's own bounds (issue 19).
+
+A bound or path constraint that changes between active and inactive makes the solution non-smooth
+there: a bang-bang input jumps from one bound to the other (minimum-time swing-up), a multiplier
+riding a load bound (the four-bar's pin force, a friction cone) has a kink where the bound becomes
+active or inactive. Inside an interval, one polynomial cannot follow a jump or a kink: a higher degree
+resolves it no better, the companion of :mod:`.error_estimate` is no upper bound there, and halving
+the interval again and again only narrows it down geometrically. At a mesh point, each side is a smooth
+arc and the estimate holds again. So the switch is *located* and the interval split there (the idea of
+Liu, Hager and Rao 2015 and of the bang-bang structure detection of Agamawi, Hager and Rao 2020, who
+read it from the switching function; here from the primal values, which every transcription has).
+
+For every bounded quantity (an input or state with :meth:`bound`, a path constraint of
+:meth:`subject_to`) the value at each point of an interval (its collocation points, and the mesh point
+at its start, which for inputs and multipliers is the previous interval's last collocation point) is
+*active* at its lower or upper bound, within :data:`ACTIVE` of the quantity's scale, or *free*. Where
+the activity changes between two neighbouring points the switch is located between them:
+
+- from one bound to the other (bang-bang), where the piecewise-linear interpolation of the points
+  crosses the middle of the two bounds (an intermediate point value is the NLP's partial step: a value
+  ``u_m`` at a point stands for the bound held over the matching part of its neighbourhood);
+- between a bound and a free arc (a junction, where the multipliers kink), where the straight line
+  through the two nearest free points reaches the bound (the slack grows linearly away from a junction
+  of a mixed constraint), kept between the two points.
+
+A switch located in the first half of the gap between an interval's start and its first collocation
+point is *at the mesh point*: Radau's inputs at the mesh point are the interval before's, so a jump
+exactly at a mesh point shows as a clean change there. Any other switch lies *inside* its interval.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import casadi as ca
+import numpy as np
+
+# A value within this fraction of the quantity's scale (the larger of its finite bounds' magnitudes and
+# its span over the horizon) of a bound is active. IPOPT's interior point leaves a bound by mu / lambda,
+# larger where the multiplier is small near a switch (the minimum-time swing-up's torque: 4.996 at a
+# bound of 5 next to the switch, 4e-4 of its span of 10); a free value half-way (0.28) is far from it.
+ACTIVE = 2e-3
+# A free run beside one bound is an arc (two junctions) only if it leaves the bound by more than this
+# many activity thresholds (:func:`locate`).
+ARC = 10.0
+# Within this fraction of the scale a bound is held tightly; between TIGHT and ACTIVE loosely (_loose).
+TIGHT = 1e-5
+# Fraction of the horizon below which an interval is not split at a junction (split_points).
+JUNCTION_MIN = 1e-3
+# Switches of several quantities closer than this fraction of their interval are one switch.
+MERGE = 0.02
+
+
+@dataclass(frozen=True)
+class Switch:
+    """A change of a bounded quantity between active and inactive (or between its bounds).
+
+    ``fraction``: the located switch in normalized time ``[0, 1]``; ``interval``: the mesh interval it
+    lies in; ``inside``: False where it sits at the interval's start (the mesh point); ``quantity``: the
+    bound's or path constraint's name; ``kind``: ``"bang-bang"`` or ``"junction"``; ``bracket``: the
+    two points around it whose activity differs (fractions); ``effect``: how far the speeds (m/s, rad/s;
+    the NLP's) are from those of a clean switch at ``fraction``, over the bracket (:func:`_effect`): the
+    NLP smears a jump over the points of its bracket (their bounds held loosely), and a jump that is no
+    mesh point sits at the nearest one."""
+
+    fraction: float
+    interval: int
+    inside: bool
+    quantity: str
+    kind: str
+    bracket: tuple[float, float] = (0.0, 0.0)
+    effect: float = 0.0
+
+
+def bounded_quantities(solution) -> list[tuple[str, np.ndarray, float, float, bool]]:
+    """``(name, values at every point, lower, upper, states only)`` of every bound on an input, coordinate
+    or speed and of every path constraint of the user's problem (a joint-coordinate NLP's too)."""
+    tr = solution.transcription
+    pr = getattr(tr, "user_problem", tr.problem)
+    state_names = set(pr.model.coordinate_names + pr.model.speed_names)
+    out = [(name, np.asarray(solution.sample(name), float), float(lo), float(hi), name in state_names)
+           for name, (lo, hi) in pr.bounds.items()]
+    if pr.path_constraints:
+        e, traj, t = pr.eqs, solution.trajectory, solution.t
+        f = ca.Function("path", [e.q, e.u, e.inputs, pr.lam, e.t],
+                        [ca.vertcat(*[c.expression for c in pr.path_constraints])]).map(len(t))
+        g = np.asarray(f(np.asarray(traj.q).T, np.asarray(traj.u).T, np.asarray(traj.inputs).T,
+                         np.asarray(traj.lam).T, t[None, :])).reshape(len(pr.path_constraints), len(t))
+        out += [(c.label, row, float(c.lower), float(c.upper), False) for c, row in zip(pr.path_constraints, g)]
+    return out
+
+
+def activity(values: np.ndarray, lower: float, upper: float) -> tuple[np.ndarray, float]:
+    """Per point: -1 at the lower bound, +1 at the upper bound, 0 free (within :data:`ACTIVE` of the
+    scale); and that threshold."""
+    finite = [abs(b) for b in (lower, upper) if np.isfinite(b)]
+    span = float(values.max() - values.min()) if values.size else 0.0
+    eps = ACTIVE * max([span, *finite, 1e-12])
+    return np.where(values <= lower + eps, -1, np.where(values >= upper - eps, 1, 0)), eps
+
+
+def _junction(t: np.ndarray, v: np.ndarray, bound: float, active: int, free: list[int]) -> float:
+    """Where the line through the free points ``free`` (nearest first) reaches ``bound``, kept between
+    the active point ``active`` and the nearest free point (their midpoint if the line does not help)."""
+    lo, hi = sorted((t[active], t[free[0]]))
+    if len(free) >= 2 and v[free[1]] != v[free[0]]:
+        slope = (v[free[1]] - v[free[0]]) / (t[free[1]] - t[free[0]])
+        at = t[free[0]] + (bound - v[free[0]]) / slope
+        if np.isfinite(at):
+            return float(min(max(at, lo), hi))
+    return 0.5 * (lo + hi)
+
+
+def _crossing(t: np.ndarray, v: np.ndarray, level: float, i: int, j: int) -> float:
+    """Where the piecewise-linear interpolation of points ``i..j`` first crosses ``level``."""
+    for a in range(i, j):
+        if (v[a] - level) * (v[a + 1] - level) <= 0 and v[a] != v[a + 1]:
+            return float(t[a] + (level - v[a]) / (v[a + 1] - v[a]) * (t[a + 1] - t[a]))
+    return 0.5 * float(t[i] + t[j])
+
+
+def locate(t: np.ndarray, v: np.ndarray, s: np.ndarray, lower: float, upper: float,
+           eps: float) -> list[tuple[float, str, int, int]]:
+    """The switches between points ``t`` (in time order) of values ``v`` with activity ``s``:
+    ``(where, kind, i, j)``, the switch between points ``i`` and ``j`` (their activities differ). A run
+    of free points between the two bounds is one jump (bang-bang), however many points and intervals it
+    spans: on very short intervals next to a jump the NLP's inputs are nearly arbitrary, the objective
+    hardly depends on them. A free run next to one bound counts (two junctions) only if it leaves the
+    bound by more than :data:`ARC` times ``eps`` (the activity threshold): else the bound is held loosely,
+    IPOPT's ``mu / lambda`` where the bound's multiplier is small (on short intervals, whose multipliers
+    scale with their length, and next to a switch, where the switching function vanishes)."""
+    found, n, i = [], len(t), 0
+    # Each maximal run of free points, with its active neighbours (if any) on either side.
+    while i < n:
+        if s[i] != 0:
+            if i + 1 < n and s[i + 1] != 0 and s[i + 1] != s[i]:           # one bound straight to the other
+                found.append((0.5 * float(t[i] + t[i + 1]), "bang-bang", i, i + 1))
+            i += 1
+            continue
+        j = i
+        while j + 1 < n and s[j + 1] == 0:
+            j += 1
+        left = i - 1 if i > 0 else None
+        right = j + 1 if j + 1 < n else None
+        if left is not None and right is not None and s[left] == -s[right]:
+            found.append((_crossing(t, v, 0.5 * (lower + upper), left, right), "bang-bang", left, right))
+        elif np.abs(v[i : j + 1] - (lower if s[left if left is not None else right] < 0 else upper)).max() > ARC * eps:
+            run = list(range(i, j + 1))
+            if left is not None:
+                found.append((_junction(t, v, lower if s[left] < 0 else upper, left, run), "junction", left, i))
+            if right is not None:
+                found.append((_junction(t, v, lower if s[right] < 0 else upper, right, run[::-1]), "junction", j, right))
+        i = j + 1
+    return found
+
+
+def _loose(v: np.ndarray, s: np.ndarray, i: int, step: int, tight: float, lower: float, upper: float) -> int:
+    """From the active point ``i``, the farthest point in direction ``step`` up to which the values stay
+    active at the same bound but further from it than ``tight``: IPOPT's interior point holds a bound
+    loosely where its multiplier is small, next to a switch (the switching function vanishes there), and
+    the inputs and multipliers there are neither the jump's nor the arc's (minimum-time swing-up: a
+    torque of 4.991-4.998 at a bound of 5 over ten intervals next to the switch, multipliers 1e-3 off)."""
+    bound = lower if s[i] < 0 else upper
+    while 0 <= i + step < len(v) and s[i + step] == s[i] and abs(v[i + step] - bound) > tight:
+        i += step
+    return i
+
+
+def _effect(t: np.ndarray, D: np.ndarray, at: float, mesh: np.ndarray, T: float) -> float:
+    """How far the speeds (m/s, rad/s; the NLP's) stray from a clean switch at ``at`` (s) across a bracket:
+    the largest ``|integral (u' - u'_clean) dt|`` from its first point ``t[0]`` (trapezoids on the points),
+    ``u'_clean`` the accelerations of the bracket's ends before and after ``at``; and, if ``at`` is no
+    mesh point, the jump of the accelerations times its distance from the nearest one (where a clean
+    jump at that mesh point would put it)."""
+    clean = np.where(t[None, :] < at, D[:, :1], D[:, -1:])
+    drift = np.concatenate([np.zeros((D.shape[0], 1)),
+                            np.cumsum(0.5 * (np.diff(t) * (D - clean)[:, 1:] + np.diff(t) * (D - clean)[:, :-1]), axis=1)], axis=1)
+    misplaced = float(np.abs(D[:, -1] - D[:, 0]).max()) * float(np.abs(mesh * T - at).min())
+    return max(float(np.abs(drift).max()), misplaced)
+
+
+def detect_switches(solution) -> list[Switch]:
+    """Every switch of every bounded quantity of ``solution``, located (module notes), in time order.
+
+    The first point (``t = 0``) is left out for inputs and path constraints: Radau has no collocation
+    point there, its inputs are extrapolated and its multipliers follow from the acceleration level."""
+    tr = solution.transcription
+    mesh, frac = tr.scheme.mesh_fractions, tr.fractions
+    D, T = np.asarray(solution.D, float), float(solution.t_final)
+    first = frac[tr.offsets[:-1] + 1]              # each interval's first collocation point
+    out = []
+    for name, v, lo, hi, states_only in bounded_quantities(solution):
+        s, eps = activity(v, lo, hi)
+        idx = np.arange(0 if states_only else 1, len(v))
+        if len(np.unique(s[idx])) < 2:
+            continue
+        for at, kind, i, j in locate(frac[idx], v[idx], s[idx], lo, hi, eps):
+            k = int(np.clip(np.searchsorted(mesh, at, side="right") - 1, 0, tr.scheme.intervals - 1))
+            # Before the middle of the gap to the first collocation point: at the mesh point.
+            inside = at - mesh[k] > 0.5 * (first[k] - mesh[k]) * (1.0 + 1e-9)
+            if kind == "bang-bang":     # the bracket of a jump takes in the points where its bounds are held loosely
+                tight = eps * TIGHT / ACTIVE
+                i, j = _loose(v[idx], s[idx], i, -1, tight, lo, hi), _loose(v[idx], s[idx], j, 1, tight, lo, hi)
+            pi, pj = idx[i], idx[j]
+            effect = _effect(frac[pi : pj + 1] * T, D[:, pi : pj + 1], at * T, mesh, T) if D.size else 0.0
+            out.append(Switch(float(at), k, bool(inside), name, kind, (float(frac[pi]), float(frac[pj])), effect))
+    return sorted(out, key=lambda w: w.fraction)
+
+
+def touched(switches: list[Switch], mesh: np.ndarray) -> np.ndarray:
+    """Per interval of ``mesh``: whether the bracket of a located switch overlaps it. There the inputs or
+    multipliers are not smooth because of that switch, which splitting has placed (or will place) at a
+    mesh point; halving such an interval again only shortens it, and on short intervals next to a switch
+    the NLP holds its bounds loosely (IPOPT's ``mu / lambda``, the bound's multiplier scaling with the
+    interval's length), so their values grow noisier, not smoother (rolling-disk drive at 1e-4: 90
+    intervals of 1e-5 of the horizon at its friction cone's junction, 127 s CPU)."""
+    out = np.zeros(len(mesh) - 1, bool)
+    for w in switches:
+        out |= (mesh[:-1] < w.bracket[1]) & (mesh[1:] > w.bracket[0])
+    return out
+
+
+def jump_windows(switches: list[Switch], mesh: np.ndarray) -> list[tuple[float, float]]:
+    """Where the inputs and multipliers jump, left out of their estimate (:func:`.error_estimate.estimate_error`):
+    the mesh intervals (``mesh``, fractions) that the bracket of a jump (``kind == "bang-bang"``) touches.
+    The whole interval, because each interval's polynomial through a point inside the jump bends over all
+    of it (minimum-time swing-up: 0.08 of the largest load between the last point at the bound and the
+    mesh point before it)."""
+    out = []
+    for w in switches:
+        if w.kind == "bang-bang":
+            lo = mesh[max(np.searchsorted(mesh, w.bracket[0], side="right") - 1, 0)]
+            hi = mesh[min(np.searchsorted(mesh, w.bracket[1], side="left"), len(mesh) - 1)]
+            out.append((float(lo), float(hi)))
+    return out
+
+
+def split_points(switches: list[Switch], mesh: np.ndarray, min_piece: float, tolerance: float,
+                 ratio: np.ndarray) -> dict[int, list[float]]:
+    """Per interval, the fractions to split it at: the switches inside it that matter, those of several
+    quantities within :data:`MERGE` of the interval's length merged into one (their mean), none that
+    would leave a piece shorter than ``min_piece`` (a fraction of the horizon).
+
+    A jump between bounds matters while its ``effect`` exceeds half the ``tolerance``: with the jump at
+    the nearest mesh point instead of where it was located, the speeds then move by less than that, and
+    a mesh point closer still only makes the NLP's inputs there arbitrary (over a few microseconds the
+    objective hardly depends on them; the minimum-time swing-up split at every such value ended on 94
+    intervals). A junction (a kink, the
+    values continuous) matters where its interval's estimate is above the tolerance (``ratio[k] > 1``):
+    its error is of the size the companion sees, and splitting at the kink beats raising the degree;
+    not on intervals shorter than :data:`JUNCTION_MIN`, where "junctions" are mostly a bound held loosely
+    next to a jump (minimum-time swing-up at 1e-4: 128 intervals chasing them)."""
+    by_interval: dict[int, list[float]] = {}
+    for w in switches:
+        matters = (w.effect > 0.5 * tolerance if w.kind == "bang-bang"
+                   else ratio[w.interval] > 1.0 and mesh[w.interval + 1] - mesh[w.interval] > JUNCTION_MIN)
+        if w.inside and matters:
+            by_interval.setdefault(w.interval, []).append(w.fraction)
+    out = {}
+    for k, points in by_interval.items():
+        a, b = float(mesh[k]), float(mesh[k + 1])
+        groups: list[list[float]] = []
+        for p in sorted(points):
+            if groups and p - groups[-1][-1] <= MERGE * (b - a):
+                groups[-1].append(p)
+            else:
+                groups.append([p])
+        cuts, last = [], a
+        for g in groups:
+            p = float(np.mean(g))
+            if p - last >= min_piece and b - p >= min_piece:
+                cuts.append(p)
+                last = p
+        if cuts:
+            out[k] = cuts
+    return out
+

@@ -1,0 +1,100 @@
+"""Switches located from the NLP's bounds and meshes split at them (ocp/switch_detection.py; issue 19),
+checked against closed forms: a block pushed bang-bang in minimum time (switch at t1 / T = 1/3) and
+synthetic point values whose switch is known by construction."""
+from __future__ import annotations
+
+import math
+
+import casadi as ca
+import numpy as np
+
+from ocp_constraints import Model, OptimalControlProblem, joints
+from ocp_constraints.ocp.error_estimate import compare, names, sample_grid, values_at
+from ocp_constraints.ocp.mesh_refinement import refine, solve_to_tolerance
+from ocp_constraints.ocp.schemes import Radau
+from ocp_constraints.ocp.switch_detection import activity, detect_switches, locate, split_points
+
+T_FINAL, T_SWITCH = math.sqrt(3.0), 1 / math.sqrt(3.0)
+
+
+def _block() -> OptimalControlProblem:
+    """A block sliding along E1 (prismatic joint), force F in [-1, 2] N, from rest at x = 0 to rest at
+    x = 1 m in minimum time. Pontryagin: F = 2 up to t1 = 1/sqrt(3), then -1 until T = sqrt(3)."""
+    model = Model("block", gravity=(0.0, 0.0, 0.0))
+    block = model.add_body("block", 1.0, 0.1 * np.eye(3), rotation="321")
+    centre = block.point("centre", (0.0, 0.0, 0.0))
+    joints.prismatic(model, "slider", centre, axis=(1, 0, 0), anchor=(0.0, 0.0, 0.0))
+    model.add_force("push", centre, ca.vertcat(model.add_input("F"), 0, 0))
+    problem = OptimalControlProblem(model, t_final=2.0, t_final_bounds=(0.5, 5.0))
+    problem.bound("F", -1.0, 2.0)
+    problem.initial({"block.x": 0.0, "block.x_dot": 0.0})
+    problem.final({"block.x": 1.0, "block.x_dot": 0.0})
+    problem.minimize_final_time()
+    return problem
+
+
+def _closed_form_state_error(sol) -> float:
+    """Largest error of the block's states against the closed form, on a grid of 4 per collocation point."""
+    fractions, owner = sample_grid(sol.transcription, 4)
+    t = fractions * sol.t_final
+    up = t <= T_SWITCH
+    x = np.where(up, t**2, T_SWITCH**2 + 2 * T_SWITCH * (t - T_SWITCH) - (t - T_SWITCH) ** 2 / 2)
+    v = np.where(up, 2 * t, 2 * T_SWITCH - (t - T_SWITCH))
+    z = 0 * t
+    order = sol.transcription.problem.model.coordinate_names + sol.transcription.problem.model.speed_names
+    assert order[0] == "block.x" and order[6] == "block.vbar_x"
+    truth = {"states": np.array([x, z, z, z, z, z, v, z, z, z, z, z]),
+             "multipliers": np.zeros((sol.lam.shape[0], t.size)), "inputs": np.where(up, 2.0, -1.0)[None, :]}
+    return compare(values_at(sol, fractions), truth, fractions, owner, sol.transcription.scheme.intervals,
+                   names(sol)).totals["states"]
+
+
+def test_a_jump_between_bounds_is_located_where_the_points_cross_the_middle_of_the_bounds():
+    # F = 2 up to 0.3, one point at 0.5 (a partial step), -1 after: the line through (0.3, 2), (0.4, 0.5)
+    # crosses the middle 0.5 at 0.4 exactly; a point at a bound's value within ACTIVE counts as active.
+    t = np.array([0.1, 0.2, 0.3, 0.4, 0.5, 0.6])
+    v = np.array([2.0, 2.0, 1.9999, 0.5, -1.0, -1.0])
+    s, eps = activity(v, -1.0, 2.0)
+    assert s.tolist() == [1, 1, 1, 0, -1, -1]
+    [(at, kind, i, j)] = locate(t, v, s, -1.0, 2.0, eps)
+    assert kind == "bang-bang" and (i, j) == (2, 4) and math.isclose(at, 0.4, abs_tol=1e-4)
+
+
+def test_a_junction_is_located_where_the_linear_slack_reaches_the_bound():
+    # A path constraint at its upper bound 1 up to t = 0.25, then leaving it linearly (slack 4 (t - 0.25)):
+    # the junction by the line through the two nearest free points is 0.25 exactly.
+    t = np.linspace(0.0, 1.0, 9)
+    v = np.where(t <= 0.25, 1.0, 1.0 - 4.0 * (t - 0.25))
+    s, eps = activity(v, -np.inf, 1.0)
+    [(at, kind, i, j)] = locate(t, v, s, -np.inf, 1.0, eps)
+    assert kind == "junction" and (i, j) == (2, 3) and math.isclose(at, 0.25, abs_tol=1e-12)
+
+
+def test_refine_splits_an_interval_at_its_switches_whatever_its_estimate():
+    scheme = Radau(mesh=(0.0, 0.5, 1.0), degrees=(5, 4))
+    new, born = refine(scheme, np.array([0.5, 0.5]), switches={0: [0.3]})
+    assert np.allclose(new.mesh_fractions, [0.0, 0.3, 0.5, 1.0]) and list(new.points_per_interval - 1) == [5, 5, 4]
+
+
+def test_the_coarse_block_shows_one_jump_inside_an_interval_near_the_closed_form_switch():
+    sol = _block().solve(Radau(5, degree=3), progress=False)
+    jumps = [w for w in detect_switches(sol) if w.kind == "bang-bang"]
+    [w] = jumps
+    assert w.quantity == "F" and w.inside and abs(w.fraction - 1 / 3) < 0.02
+    mesh = sol.transcription.scheme.mesh_fractions
+    assert split_points(jumps, mesh, 1e-6, 1e-4, np.zeros(5)) == {w.interval: [w.fraction]}
+
+
+def test_refinement_puts_a_mesh_point_at_the_switch_and_its_estimate_bounds_the_closed_form_error():
+    """At 1e-4 from Radau 3 on 5 intervals: met, a mesh point within 1e-4 of the horizon from the switch,
+    few intervals (concentrated there, not globally fine), and the state estimate (the companion's
+    difference, at least the switch's effect) above the true error and within 10x of it."""
+    sol = solve_to_tolerance(_block(), 1e-4, Radau(5, degree=3), max_refinements=8)
+    mr = sol.mesh_refinement
+    assert mr["met"], mr["message"]
+    mesh = sol.transcription.scheme.mesh_fractions
+    assert np.abs(mesh - 1 / 3).min() < 1e-4 and sol.transcription.scheme.intervals <= 15
+    assert abs(sol.t_final - T_FINAL) <= 1e-4
+    true, est = _closed_form_state_error(sol), mr["estimate"]["states"]
+    assert est / 10 <= true <= est <= 1e-4
+    assert mr["jump_windows"] and all(lo <= 1 / 3 <= hi for lo, hi in mr["jump_windows"][:1])
