@@ -117,7 +117,8 @@ def knee_model_data(model, implant_meshes=None, build: bool = True) -> KneeModel
             raise KneeError(f"{model}: no muscle-path fits for this model file (SHA-256 {sha[:12]}...; the package "
                             f"has the JW model's only, and one model's fits are never used for another), and "
                             f"{why}: install it (pip install -e \".[opensim]\") so that OpenSim's paths of this "
-                            "model are sampled and fitted (about 3 minutes of CPU: lengths and moment arms), or use the JW model")
+                            "model are sampled and fitted (lengths and moment arms, about 3 minutes of CPU), "
+                            "or use the JW model")
         build_muscle_paths(model, paths_file)
         built.append("muscle-path fits")
     source = f"built for this model ({', '.join(built)}) in {folder}" if built else f"cache {folder}"
