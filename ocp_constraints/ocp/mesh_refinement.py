@@ -68,6 +68,7 @@ START = {"intervals": 10, "degree": 3}
 # iterations of driving the default 0.1 down (swing-up Radau 7 N = 20 from Radau 5 N = 10: 6 -> 4
 # iterations; rolling-disk drive Radau 5 N = 20 from Radau 3 N = 10: 31 -> 17).
 WARM_IPOPT = {"ipopt.mu_init": 1e-6}
+AT_HAND = 3              # solutions kept as possible judges of later meshes
 
 
 def check_tolerance(tolerance) -> float:
@@ -264,7 +265,9 @@ def solve_to_tolerance(problem, tolerance, method=None, ipopt_options: dict | No
     record = {"tolerance": tol, "quantities_refined_on": list(GATED), "met": False, "history": history,
               "coordinates": problem.nlp_coordinates}
     parents, warm, total, total_cpu, first, solved = None, warm_start, 0.0, 0.0, None, None
-    at_hand: list = []      # solutions solved so far: a finer one may judge a later mesh (:func:`finer`)
+    # Solutions solved lately: a finer one may judge a later mesh (:func:`finer`). Meshes grow, so a finer
+    # one is among the last few; the older ones (each with its NLP and IPOPT instance) are let go.
+    at_hand: list = []
     for r in range(max_refinements + 1):
         entry = {"refinement": r, "intervals": scheme.intervals, "points": scheme.point_count,
                  "mesh": [float(m) for m in scheme.mesh_fractions], "degrees": [int(d) for d in _degrees(scheme)]}
@@ -289,6 +292,7 @@ def solve_to_tolerance(problem, tolerance, method=None, ipopt_options: dict | No
                 companion, t_comp, c_comp = _timed_solve(problem, pilot_of(scheme) if r == 0 else companion_of(scheme),
                                                          {**WARM_IPOPT, **options}, sol, progress, first)
                 at_hand.append(companion)
+            del at_hand[:-AT_HAND]
             entry["solves"] = (solved is None) + (judge is None)
         except OCPSolveError as exc:
             record["message"] = f"refinement {r}: {exc}"
