@@ -33,27 +33,27 @@ def test_a_second_mesh_reuses_every_kind_and_its_derivatives_match_whole_graph_a
     _assert_derivatives_agree(tr.block, x + 0.1 * np.random.default_rng(3).standard_normal(x.size))
 
 
-def _swing_up(edit=None):
+def _swing_up(edit=None, coordinates="maximal"):
     problem = build_task("pendulum", "swing_up")[1]
-    problem.coordinates = "maximal"
+    problem.coordinates = coordinates
     if edit:
         edit(problem)
     return problem
 
 
-@pytest.mark.parametrize("edit", [
-    lambda p: setattr(p.integral_terms[0], "weight", 3.0 * p.integral_terms[0].weight),
-    lambda p: p.minimize_integral(p.quantity("rod.psi_dot") ** 2, weight=0.5, label="rate"),
-    lambda p: p.subject_to(p.quantity("motor"), -3.0, 3.0, label="torque"),     # unbounded: -3.0 to 3.8 N m
-], ids=["weight", "objective term", "path constraint"])
-def test_an_edit_after_a_solve_takes_effect(edit):
+@pytest.mark.parametrize("edit, coordinates", [
+    (lambda p: setattr(p.integral_terms[0], "weight", 3.0 * p.integral_terms[0].weight), "maximal"),
+    (lambda p: p.subject_to(p.quantity("motor"), -3.0, 3.0, label="torque"), "maximal"),   # unbounded: -3.0 to 3.8 N m
+    (lambda p: p.minimize_integral(p.quantity("rod.psi_dot") ** 2, weight=0.5, label="rate"), "joint"),
+], ids=["weight", "path constraint", "objective term, joint coordinates"])
+def test_an_edit_after_a_solve_takes_effect(edit, coordinates):
     """A problem solved, edited, solved again gives what the edited problem gives when it never solved."""
     scheme = Radau(6, degree=3)
-    problem = _swing_up()
+    problem = _swing_up(coordinates=coordinates)
     before = problem.solve(scheme)
     edit(problem)
     after = problem.solve(scheme, warm_start=before)
-    fresh = _swing_up(edit).solve(scheme)
+    fresh = _swing_up(edit, coordinates).solve(scheme)
     assert abs(after.objective - before.objective) > 1e-3 * abs(before.objective)
     assert after.objective == pytest.approx(fresh.objective, rel=1e-8)
     assert np.abs(after.sample("motor") - fresh.sample("motor")).max() <= 1e-6
