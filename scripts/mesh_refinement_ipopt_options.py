@@ -24,6 +24,8 @@ VARIANTS = {
     "mumps_pivot_order 0 (AMD)": {"ipopt.mumps_pivot_order": 0},
     "mumps_scaling 0": {"ipopt.mumps_scaling": 0},
     "AMD + mumps_scaling 0": {"ipopt.mumps_pivot_order": 0, "ipopt.mumps_scaling": 0},
+    "constr_mult_init_max 0": {"ipopt.constr_mult_init_max": 0},
+    "AMD + constr_mult_init_max 0": {"ipopt.mumps_pivot_order": 0, "ipopt.constr_mult_init_max": 0},
 }
 
 
