@@ -53,6 +53,9 @@ MODES = 3                 # sine modes of a perturbation
 DEFAULT_AMPLITUDE = 0.5   # perturbation amplitude relative to each quantity's range
 DEFAULT_RTOL = 1e-5       # objectives within this relative distance are one local optimum
 SUCCESS = ("Solve_Succeeded", "Solved_To_Acceptable_Level")
+# What a problem keeps of its solves (problem.transcription's NLPs with their IPOPT instances; the element
+# kinds of transcription_elements and their derivatives of nlp_assembly): not sent to Dask workers.
+LOCAL_CACHES = ("_transcriptions", "_element_kinds", "_element_derivatives")
 
 
 class StartRecord(NamedTuple):
@@ -288,8 +291,9 @@ def _run_on_client(problem, method, starts, seed, amplitude, ipopt_options, gues
 
     from .solution import OCPSolution
 
-    clone = copy.copy(problem)                       # the NLP cache (IPOPT instances) stays here
-    clone.__dict__ = {k: v for k, v in problem.__dict__.items() if k != "_transcriptions"}
+    # The NLP cache (IPOPT instances) and the element caches stay here: workers build their own.
+    clone = copy.copy(problem)
+    clone.__dict__ = {k: v for k, v in problem.__dict__.items() if k not in LOCAL_CACHES}
     with ca.global_pickle_context():
         payload = cloudpickle.dumps((clone, method, int(seed), float(amplitude), ipopt_options or {}, guesses))
     futures = [client.submit(_solve_start_remote, payload, k) for k in range(starts)]
