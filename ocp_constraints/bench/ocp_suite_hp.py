@@ -39,7 +39,8 @@ import numpy as np
 FIELDS = ["problem", "tolerance", "coordinates", "met", "refinements", "solves", "intervals", "points", "objective",
           "reference_objective", "deviation", "true_states", "estimate_states", "true_over_estimate",
           "library_estimate_states", "library_estimate_multipliers", "iterations_total", "wall_s", "cpu_s",
-          "uniform_meeting", "uniform_true_states", "uniform_wall_s", "uniform_cpu_s", "uniform_sweep", "history", "message"]
+          "uniform_meeting", "uniform_true_states", "uniform_wall_s", "uniform_cpu_s", "uniform_sweep", "switches",
+          "history", "message"]
 WARM = {"ipopt.mu_init": 1e-6}
 
 
@@ -110,16 +111,37 @@ def uniform_sweep(sp, ref_setting: str, tolerances, log=print) -> list[dict]:
 def _step(h: dict) -> str:
     """One refinement in a few words: mesh, estimate of the states, resolved or not, CPU of both solves."""
     e = h.get("estimate", {})
-    return (f"{h['intervals']}x{h['points']}pts est {e.get('states', float('nan')):.1e}"
-            f"{'' if h.get('resolved', True) else ' unresolved'} {h.get('cpu_s', 0) + h.get('companion_cpu_s', 0):.1f}s")
+    split = f" split@{len(h['switches'])} switches" if h.get("switches") else ""
+    return (f"{h['intervals']}x{h['points']}pts est {e.get('states', float('nan')):.1e}/{e.get('multipliers', float('nan')):.1e}"
+            f"{'' if h.get('resolved', True) else ' unresolved'}{split} {h.get('cpu_s', 0) + h.get('companion_cpu_s', 0):.1f}s"
+            f" it {h.get('iterations', 0)}+{h.get('companion_iterations', 0)}")
 
 
-def run(sp, tolerance: float, suite_row: dict, sweep: list[dict] | None = None, log=print) -> dict:
+def _switches(sol) -> str:
+    """The switches of the final solution's bounds and path constraints (:mod:`~ocp_constraints.ocp.switch_detection`)."""
+    from ..ocp.switch_detection import detect_switches
+
+    found = detect_switches(sol)
+    return "; ".join(f"{w.kind} of '{w.quantity}' at {w.fraction:.4f}{' inside' if w.inside else ''}" for w in found[:8]) + (
+        f"; ... {len(found)} in all" if len(found) > 8 else "")
+
+
+def run(sp, tolerance: float, suite_row: dict, sweep: list[dict] | None = None, log=print,
+        max_refinements: int | None = None) -> dict:
     """Solve suite problem ``sp`` to ``tolerance`` by hp refinement from the library's default start and check it."""
-    from ..ocp.mesh_refinement import WARM_IPOPT, companion_of
+    from ..errors import OCPSolveError
+    from ..ocp.mesh_refinement import WARM_IPOPT, companion_of, solve_to_tolerance
 
     problem = sp.ours(coordinates=sp.fine_coordinates)
-    sol, wall, cpu = _timed_solve(problem, tolerance=tolerance)
+    if max_refinements is None:
+        sol, wall, cpu = _timed_solve(problem, tolerance=tolerance)
+    else:       # problem.solve takes no max_refinements: the refinement itself, as problem.solve calls it
+        started, c0 = time.perf_counter(), time.process_time()
+        try:
+            sol = solve_to_tolerance(problem, tolerance, progress=False, max_refinements=max_refinements)
+        except OCPSolveError as exc:       # keeps its solution (the last iterate)
+            sol = exc.solution
+        wall, cpu = time.perf_counter() - started, time.process_time() - c0
     rec = sol.mesh_refinement or {}
     hist = rec.get("history", [])
     reference_objective = float(suite_row["reference_objective"])
@@ -138,7 +160,7 @@ def run(sp, tolerance: float, suite_row: dict, sweep: list[dict] | None = None, 
            "library_estimate_multipliers": rec.get("estimate", {}).get("multipliers"),
            "iterations_total": sum(h.get("iterations", 0) + h.get("companion_iterations", 0) for h in hist),
            "wall_s": wall, "cpu_s": cpu, "message": str(rec.get("message", sol.status))[:300],
-           "history": " -> ".join(_step(h) for h in hist)}
+           "history": " -> ".join(_step(h) for h in hist), "switches": _switches(sol)}
     if sweep:
         meeting = next((u for u in sweep if u["true_states"] <= max(tolerance, true)), None)
         row["uniform_sweep"] = "; ".join(f"N={u['N']}: {u['true_states']:.1e} {u['cpu_s']:.2f} s CPU" for u in sweep)
@@ -165,6 +187,7 @@ def main(argv=None) -> int:
     ap.add_argument("--uniform", action="store_true", help="also the uniform Radau 7 meshes of the chain, cold")
     ap.add_argument("--suite", default="results/bench/ocp_suite.csv", help="the suite's results (converged references)")
     ap.add_argument("--out", default=None, help="default: ocp_suite_hp.csv next to --suite")
+    ap.add_argument("--max-refinements", type=int, default=None, help="cap the refinements (default the library's, 10)")
     args = ap.parse_args(argv)
     with open(args.suite) as fh:
         suite = {r["problem"]: r for r in csv.DictReader(fh)}
@@ -172,7 +195,7 @@ def main(argv=None) -> int:
     for name in args.only:
         sp = next(p for p in PROBLEMS if p.name == name)
         sweep = uniform_sweep(sp, suite[name]["reference_setting"], args.tolerances) if args.uniform else None
-        rows += [run(sp, tol, suite[name], sweep) for tol in args.tolerances]
+        rows += [run(sp, tol, suite[name], sweep, max_refinements=args.max_refinements) for tol in args.tolerances]
     out = Path(args.out) if args.out else Path(args.suite).with_name("ocp_suite_hp.csv")
     with out.open("w", newline="") as fh:
         w = csv.DictWriter(fh, FIELDS)
