@@ -155,7 +155,7 @@ def _use_rate_speeds(smooth: bool = False) -> None:
 
     from ocp_constraints.ocp import joint_transcription as jt
 
-    original = jt.JointGuess.speeds
+    original = _ORIGINAL.setdefault("speeds", jt.JointGuess.speeds)
 
     def speeds(self, p, targets, t, W):
         if p.shape[1] < 2:
@@ -183,9 +183,17 @@ def _use_rate_speeds(smooth: bool = False) -> None:
     jt.JointGuess.speeds = speeds
 
 
+_ORIGINAL: dict = {}
+
+
 def _speeds_patch(candidate: str) -> None:
+    """The candidate's joint-coordinate speed start, or the library's own (a process may run several candidates)."""
     if CANDIDATES[candidate].get("speeds") in ("rates", "smooth"):
         _use_rate_speeds(smooth=CANDIDATES[candidate]["speeds"] == "smooth")
+    elif "speeds" in _ORIGINAL:
+        from ocp_constraints.ocp import joint_transcription as jt
+
+        jt.JointGuess.speeds = _ORIGINAL["speeds"]
 
 
 def run_once(name: str, mesh: str, coordinates: str, candidate: str) -> dict:
@@ -213,6 +221,29 @@ def run_once(name: str, mesh: str, coordinates: str, candidate: str) -> dict:
         row.update(success=False, status=f"{type(exc).__name__}: {exc}"[:120], iterations=-1, objective=math.nan)
     row.update(cpu=time.process_time() - cpu, wall=time.perf_counter() - wall)
     return row
+
+
+def continued(name: str, mesh: str, candidate: str, fine: list[int]) -> str:
+    """Which optimum a coarse solve found: its solution warm-started onto Radau 7 with each N of ``fine`` in
+    turn, in the default coordinates (a coarse objective alone may be a discretization artifact)."""
+    import ocp_constraints as oc
+
+    _speeds_patch(candidate)
+    degree, N = MESHES[mesh]
+    problem = PROBLEMS[name]()
+    if CANDIDATES[candidate].get("coordinates") == "smoothstep":
+        _smoothstep_guesses(problem)
+    options = CANDIDATES[candidate].get("ipopt", {})
+    sol = problem.solve(oc.Radau(N, degree=degree), options, progress=False)
+    out = [f"{sol.objective:.8g}"]
+    for n in fine:
+        try:
+            sol = problem.solve(oc.Radau(n, degree=7), options, warm_start=sol, progress=False)
+            out.append(f"R7N{n} {sol.objective:.8g} ({sol.iterations} it)")
+        except oc.OCPSolveError as exc:
+            out.append(f"R7N{n} failed: {exc.solution.status}")
+            break
+    return f"{candidate} {name} {mesh}: " + " -> ".join(out)
 
 
 def _task(args: tuple) -> dict:
@@ -328,12 +359,21 @@ def main() -> None:
     ap.add_argument("--json", type=Path, default=None, help="also write the rows as JSON (and read earlier ones)")
     ap.add_argument("--markdown", type=Path, default=None, help="write the tables to this file")
     ap.add_argument("--tables-only", action="store_true", help="run nothing: the tables of the rows in --json")
+    ap.add_argument("--continue-to", nargs="*", type=int, default=None, metavar="N",
+                    help="instead of the table: each --only problem's coarse solution (each --meshes, each --candidate) "
+                         "warm-started onto Radau 7 with these N in turn, to see which optimum it is")
     args = ap.parse_args()
     names = args.only or list(PROBLEMS)
     unknown = sorted(set(names) - set(PROBLEMS))
     if unknown:
         ap.error(f"unknown problem(s) {unknown}; known: {', '.join(PROBLEMS)}")
     started = time.perf_counter()
+    if args.continue_to:
+        for cand in args.candidate:
+            for n in names:
+                for m in args.meshes:
+                    print(continued(n, m, cand, args.continue_to), flush=True)
+        return
     rows = [] if args.tables_only else measure(names, args.meshes, args.candidate, args.runs, args.jobs)
     if args.json is not None:
         earlier = json.loads(args.json.read_text()) if args.json.exists() else []
