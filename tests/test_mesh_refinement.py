@@ -1,14 +1,11 @@
 """Accuracy on request (issue 19): hp mesh refinement to a tolerance, its estimate checked against
-independent references (Pontryagin's conditions by shooting; a closed-form bang-bang optimum)."""
+an independent reference (Pontryagin's conditions by shooting); switches (a closed-form bang-bang
+optimum) are tests/test_mesh_refinement_switches.py's."""
 from __future__ import annotations
 
-import math
-
-import casadi as ca
 import numpy as np
 import pytest
 
-from ocp_constraints import Model, OptimalControlProblem, joints
 from ocp_constraints.errors import ModelError
 from ocp_constraints.ocp.error_estimate import compare, names, sample_grid, values_at
 from ocp_constraints.ocp.mesh_refinement import solve_to_tolerance
@@ -62,58 +59,6 @@ def test_estimate_brackets_the_true_error_of_the_swing_up(coordinates, nlp, pont
         assert true[q] <= 1e-4
         assert mr["estimate"][q] / 10 <= true[q] <= mr["estimate"][q], q
     assert mr["history"][0]["degrees"] == [3] * 10 and mr["degrees"] == [int(d) for d in sol.transcription.scheme.points_per_interval - 1]
-
-
-def _block_minimum_time() -> OptimalControlProblem:
-    """A block sliding along E1 (prismatic joint), force F in [-1, 2] N, from rest at x = 0 to rest at
-    x = 1 m in minimum time. Bang-bang: F = 2 up to t1 = 1/sqrt(3), then -1 until T = sqrt(3)."""
-    model = Model("block", gravity=(0.0, 0.0, 0.0))
-    block = model.add_body("block", 1.0, 0.1 * np.eye(3), rotation="321")
-    centre = block.point("centre", (0.0, 0.0, 0.0))
-    joints.prismatic(model, "slider", centre, axis=(1, 0, 0), anchor=(0.0, 0.0, 0.0))
-    model.add_force("push", centre, ca.vertcat(model.add_input("F"), 0, 0))
-    problem = OptimalControlProblem(model, t_final=2.0, t_final_bounds=(0.5, 5.0))
-    problem.bound("F", -1.0, 2.0)
-    problem.initial({"block.x": 0.0, "block.x_dot": 0.0})
-    problem.final({"block.x": 1.0, "block.x_dot": 0.0})
-    problem.minimize_final_time()
-    return problem
-
-
-def test_refinement_concentrates_intervals_at_a_switch_and_does_not_claim_the_tolerance_there():
-    """The bang-bang block at tolerance 1e-2 from Radau 3 on 5 intervals: the refinement ends with
-    its shortest interval around the switch (t1 / T = 1/3), the mesh elsewhere as coarse as it
-    started, the final time and the states as the closed form has them, to the tolerance. The
-    estimate falls below the tolerance, but the input jumps inside that interval (its Legendre
-    coefficients do not fall), so "met" is withdrawn and exactly that interval is named."""
-    sol = solve_to_tolerance(_block_minimum_time(), 1e-2, Radau(5, degree=3), max_refinements=4)
-    mr = sol.mesh_refinement
-    assert max(mr["estimate"][q] for q in ("states", "multipliers")) <= 1e-2, mr["message"]
-    assert not mr["met"] and "not smooth" in mr["message"]
-    [(a, b)] = mr["nonsmooth_intervals"]
-    assert a <= 1 / 3 <= b
-    mesh = sol.transcription.scheme.mesh_fractions
-    widths = np.diff(mesh)
-    shortest = int(widths.argmin())
-    assert mesh[shortest] <= 1 / 3 <= mesh[shortest + 1]
-    assert widths[shortest] <= widths.max() / 8 and sol.transcription.scheme.intervals <= 10
-    T, t1 = math.sqrt(3.0), 1 / math.sqrt(3.0)
-    assert abs(sol.t_final - T) <= mr["estimate"]["t_final"]
-
-    def truth(t):
-        up = t <= t1
-        x = np.where(up, t**2, t1**2 + 2 * t1 * (t - t1) - (t - t1) ** 2 / 2)
-        v = np.where(up, 2 * t, 2 * t1 - (t - t1))
-        z = 0 * t
-        return {"states": np.array([x, z, z, z, z, z, v, z, z, z, z, z]),
-                "multipliers": np.zeros((sol.lam.shape[0], t.size)), "inputs": np.where(up, 2.0, -1.0)[None, :]}
-
-    order = sol.transcription.problem.model.coordinate_names + sol.transcription.problem.model.speed_names
-    assert order[0] == "block.x" and order[6] == "block.vbar_x"
-    # Not asserted: true <= estimate. At a switch the companion (degrees + 2) resolves the jump no
-    # better than the solution, and here the true state error is 1.006x the estimate (README).
-    true = _errors(sol, truth)["states"]
-    assert mr["estimate"]["states"] / 10 <= true <= 1e-2
 
 
 def test_bad_tolerance_is_refused_with_its_value():
