@@ -8,7 +8,6 @@ import pytest
 
 from ocp_constraints.errors import ModelError
 from ocp_constraints.ocp.error_estimate import compare, names, sample_grid, values_at
-from ocp_constraints.ocp.mesh_refinement import solve_to_tolerance
 from ocp_constraints.ocp.schemes import Radau, Trapezoidal
 from ocp_constraints.scenes.registry import build_task
 
