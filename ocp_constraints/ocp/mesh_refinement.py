@@ -3,39 +3,46 @@
 ``problem.solve(tolerance=1e-6)`` starts from a coarse Radau mesh and repeats:
 
 1. solve on the current mesh (warm-started from the previous refinement's companion);
-2. solve the *companion*, the same mesh with every degree raised by two (on the first mesh: the
-   *pilot*, every interval halved at :data:`MAX_DEGREE`, :func:`pilot_of`), warm-started from 1,
-   and estimate each interval's error from the difference (:mod:`.error_estimate`); where the
-   next mesh asks for no more than the pilot has (:func:`covered`, :data:`SNAP_POINTS`), the pilot
-   is the next mesh and its solution the next solution: one solve fewer;
-3. stop when the estimate of the states (absolute, SI units) and of the multipliers (relative
-   to the largest load) is at most ``tolerance``; else refine every interval whose estimate
-   exceeds it, an hp rule after Patterson, Hager and Rao (2014) (:func:`refine`): a smooth
-   interval gets the degree that a fall of the error of about 4x per degree predicts, up to
-   :data:`MAX_DEGREE`, else it is split at that degree into as many pieces as the rest of the
-   error needs; an interval refined last time whose estimate fell less than tenfold is not smooth
-   there (a switch, a kink) and is split in two at :data:`MIN_DEGREE`. So non-smooth solutions end
-   with short intervals at their switches, not a globally fine mesh.
-   A split at :data:`MIN_DEGREE` needs both: the fall too slow *and* the interval's inputs or
-   multipliers not smooth (:func:`.error_estimate.legendre_decay`); a smooth interval whose estimate
-   fell too slowly is still short of resolution, and dropping its degree to 3 only makes it worse
-   (four-bar and acrobot: every interval "rough", all reset to degree 3, hundreds of intervals);
+2. judge it against a *companion*: a solution at hand that is finer everywhere, if there is one
+   (:func:`.mesh_companions.finer`: each interval halved at a degree at least its own, or kept at two
+   degrees more; no solve), else the same mesh with every degree raised by two, solved warm from 1
+   (on the first mesh: the *pilot*, every interval halved at :data:`MAX_DEGREE`, :func:`pilot_of`);
+   the estimate of each interval's error is :data:`.error_estimate.SAFETY` times their difference
+   (:mod:`.error_estimate`). Where the next mesh asks for no more than the pilot has and the pilot is
+   not much larger (:func:`covered`, :data:`SNAP_POINTS`), the pilot is the next mesh and its
+   solution the next solution: one solve fewer;
+3. *switches*: where an input bound or a path constraint jumps between its bounds inside an interval
+   (read from the NLP's solution, :mod:`.switch_detection`), the interval is split *at* the located
+   switch time, whatever its estimate, and the inputs' and multipliers' estimates leave out the
+   intervals the jump touches (their error there is the jump itself on any mesh, short of a switch
+   time that is a variable); the states' estimate is at least the switch's own effect;
+4. stop when the estimate of the states (absolute, SI units) and of the multipliers (relative
+   to the largest load) is at most ``tolerance`` and no switch is left inside an interval; else
+   refine every interval whose estimate exceeds it, an hp rule after Patterson, Hager and Rao (2014)
+   (:func:`refine`): a smooth interval gets the degree that a fall of the error of about 4x per
+   degree predicts, up to :data:`MAX_DEGREE`, else it is split at that degree into as many pieces as
+   the rest of the error needs; an interval refined last time whose estimate fell less than tenfold
+   *and* whose inputs or multipliers are not smooth (:func:`.error_estimate.legendre_decay`) is
+   *rough* (a kink no bound located) and is halved at :data:`MIN_DEGREE`, down to :data:`ROUGH_MIN`
+   of the horizon (a smooth interval whose estimate fell too slowly is still short of resolution:
+   dropping its degree to 3 made the four-bar and the acrobot hundreds of intervals);
    *guard*: where the companion differs from the solution by more than a mesh error can be (the
    objectives by more than 2%, a state by more than a quarter of its range, :func:`.error_estimate.resolution`),
    the two are not one optimum seen at two resolutions, and the per-interval estimate says nothing:
    the next mesh is then the companion's, every interval halved (:func:`uniform_step`), warm-started
    from the companion, no interval judged rough from it, and "met" is not claimed on it;
-4. when the estimate meets the tolerance, check that it can be trusted: an interval whose inputs
-   or multipliers jump inside it (their Legendre coefficients do not fall) withdraws "met" and is
-   named (:func:`_flag_nonsmooth`): there the companion is no upper bound.
+5. when the estimate meets the tolerance but an interval's inputs or multipliers are still not smooth
+   (no bound located a switch there), that interval is halved and the refinement goes on
+   (:func:`_nonsmooth_splits`); on the last refinement such intervals withdraw "met" and are named
+   (:func:`_flag_nonsmooth`): there the companion is no upper bound.
 
 Every mesh is transcribed in the problem's own coordinates (joint coordinates under the default
 ``coordinates="auto"`` where they apply); the estimate reads states and multipliers by name.
 
 The solution returned is step 1's on the last mesh (its error is what the estimate
 estimates); ``sol.mesh_refinement`` holds the final mesh and degrees, the estimate per
-quantity, and the history (mesh, IPOPT iterations and wall time of each refinement, both
-solves).
+quantity, and the history (mesh, solves, IPOPT iterations and times of each refinement, the
+companion it was judged against, the switches located).
 """
 from __future__ import annotations
 
