@@ -93,28 +93,37 @@ def test_four_initial_and_three_final_components_pass_the_check():
     assert (d.position_dof, d.speed_dof) == (3, 3)       # a ball joint leaves three rotations
 
 
-def _satellite(coordinates: str):
+def _satellite(coordinates: str, plane: bool = False):
     """A free-floating base on a quaternion with an arm on a library hinge, in zero gravity: in joint
-    coordinates the base keeps its quaternion (its length row with it), the arm gets its hinge angle."""
+    coordinates the base keeps its quaternion (its length row with it), the arm gets its hinge angle.
+    ``plane``: the base's centre held at z = 0 by a hand-written constraint, which joint coordinates keep."""
     model = oc.Model("satellite", gravity=(0.0, 0.0, 0.0))
     base = model.add_body("base", 10.0, np.diag([1.0, 1.2, 1.5]), rotation="quaternion")
     arm = model.add_body("arm", 1.0, np.diag([0.01, 0.1, 0.1]), rotation="321")
     oc.joints.revolute(model, "shoulder", arm.point("S", (-0.5, 0, 0)), axis=(0, 0, 1), other=base.point("S", (0.5, 0, 0)))
+    if plane:
+        centre = base.point("C", (0.0, 0.0, 0.0))
+        model.add_constraint("plane", centre.v[2], position=centre.position[2])
     model.add_torque("motor", arm, ca.vertcat(0, 0, model.add_input("tau")), reaction_body=base)
     ocp = oc.OptimalControlProblem(model, t_final=2.0, coordinates=coordinates)
-    at_rest = {f"base.{s}": 0.0 for s in ("vbar_x", "vbar_y", "vbar_z", "omega_x", "omega_y", "omega_z")}
-    ocp.initial({"base.x": 0.0, "base.y": 0.0, "base.z": 0.0, "base.qw": 1.0, "base.qx": 0.0, "base.qy": 0.0,
+    at_rest = {f"base.{s}": 0.0 for s in ("vbar_x", "vbar_y", "omega_x", "omega_y", "omega_z")}
+    if not plane:
+        at_rest.update({"base.z": 0.0, "base.vbar_z": 0.0})
+    ocp.initial({"base.x": 0.0, "base.y": 0.0, "base.qw": 1.0, "base.qx": 0.0, "base.qy": 0.0,
                  "base.qz": 0.0, **at_rest, "arm.psi": 0.0, "arm.omega_z": 0.0})
     ocp.final({"arm.psi": 1.0, "arm.omega_z": 0.0, "base.omega_z": 0.0})
     ocp.minimize_effort()
     return ocp
 
 
-def test_a_free_floating_quaternion_base_solves_alike_in_joint_and_maximal_coordinates():
+@pytest.mark.parametrize("plane", [False, True], ids=["free", "held-in-a-plane"])
+def test_a_free_floating_quaternion_base_solves_alike_in_joint_and_maximal_coordinates(plane):
     """Two NLPs (the base's quaternion and the arm's hinge angle; every body's own coordinates and the
-    hinge's multipliers) of one problem reach one optimum, the base's quaternion unit in both."""
+    hinge's multipliers) of one problem reach one optimum, the base's quaternion unit in both. Held in
+    a plane (a constraint the joint form keeps), the joint form's start takes the speeds from the guessed
+    rates through the quaternion's rate matrix (4 rates, 3 speeds: a raw CasADi shape error before)."""
     mesh = oc.Radau(5, degree=7)
-    joint, maximal = (_satellite(c).solve(mesh) for c in ("joint", "maximal"))
+    joint, maximal = (_satellite(c, plane).solve(mesh) for c in ("joint", "maximal"))
     assert joint.transcription.problem.nlp_coordinates == "joint"
     for sol in (joint, maximal):
         q = np.vstack([sol.sample(f"base.q{c}") for c in "wxyz"])

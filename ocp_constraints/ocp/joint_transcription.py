@@ -138,7 +138,7 @@ class JointTranscription(Transcription):
             # no kinematic defect. Measured on the suite's four-bar, Radau 3: N = 40 from 261 to 75 IPOPT
             # iterations (N = 20: 57 -> 65); for trees the boundary speeds (as in the maximal form) did
             # better (swing-up N = 25: 8 against 13 iterations; the projected rates: four-bar N = 40, 158).
-            U = np.gradient(p, t, axis=1)
+            U = self._speeds_from_rates(p, np.gradient(p, t, axis=1))
         else:
             U = start.speeds(p, X[e.nq :], t, np.nan_to_num(W))
         A = np.gradient(U, t, axis=1) if P > 1 else np.zeros_like(U)
@@ -148,6 +148,18 @@ class JointTranscription(Transcription):
             lo, hi = pr.bounds.get(name, (-np.inf, np.inf))
             W[r] = np.clip(W[r], lo, hi)
         return self._pack(np.vstack([p, U]), L, W, pr.t_final, A=A)
+
+    def _speeds_from_rates(self, p: np.ndarray, rates: np.ndarray) -> np.ndarray:
+        """Speeds whose coordinate rates ``p' = N(p) u_r`` are nearest to ``rates`` (least squares, point by point):
+        the rates themselves where every body hangs on a mapped joint; not for a body that keeps its own
+        coordinates (its angular velocity is not its Euler angles' rates, and a quaternion has 4 rates for 3
+        speeds: a raw CasADi shape error before)."""
+        r = self.reduced
+        if all(b.name in r.maps for b in r.bodies):
+            return rates
+        N = ca.Function("rate_matrix", [r.q], [ca.jacobian(r.qdot, r.u)])
+        return np.column_stack([np.linalg.lstsq(np.asarray(N(p[:, i])), rates[:, i], rcond=None)[0]
+                                for i in range(p.shape[1])])
 
     @cached_property
     def _start(self) -> JointGuess:
