@@ -11,10 +11,12 @@ each run (``results/knee/preregistration.md``, C16). Nothing is fitted to the me
 from __future__ import annotations
 
 import argparse
+import os
 import sys
 import time
 from pathlib import Path
 
+os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")    # as the knee command (cli/knee.py), before NumPy loads
 import numpy as np
 
 ROOT = Path(__file__).resolve().parents[1]

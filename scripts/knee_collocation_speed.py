@@ -88,8 +88,21 @@ def timed_solve(args, kwargs) -> tuple:
     return res, cpu, wall, stats
 
 
-def main(trial: str, data: Path, runs: int, save_before: Path | None) -> None:
+def option_value(text: str):
+    """``--option`` values: numbers as numbers, anything else as the string."""
+    for kind in (int, float):
+        try:
+            return kind(text)
+        except ValueError:
+            pass
+    return text
+
+
+def main(trial: str, data: Path, runs: int, save_before: Path | None, options: dict | None = None) -> None:
     args, kwargs, bw = collocation_inputs(trial, data)
+    if options:
+        kwargs = {**kwargs, "ipopt_options": options}
+        print(f"  IPOPT options: {options}")
     t = np.asarray(args[0], float)
     print(f"{trial}: {len(t)} frames, {args[2].shape[2]} muscles, body weight {bw:.2f} N")
     rows = []
@@ -131,5 +144,7 @@ if __name__ == "__main__":
     ap.add_argument("--data", type=Path, default=SHARED, help="folder with IK/, GRF/, KCF/ (.mat) of the trial")
     ap.add_argument("--runs", type=int, default=1)
     ap.add_argument("--save-before", type=Path, default=None)
+    ap.add_argument("--option", action="append", default=[], metavar="NAME=VALUE",
+                    help="an extra casadi.nlpsol option for the collocation, e.g. ipopt.mumps_pivot_order=2 (candidates)")
     a = ap.parse_args()
-    main(a.trial, a.data, a.runs, a.save_before)
+    main(a.trial, a.data, a.runs, a.save_before, {k: option_value(v) for k, v in (o.split("=", 1) for o in a.option)})

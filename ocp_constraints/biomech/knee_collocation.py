@@ -29,8 +29,8 @@ doi:10.1007/s10439-016-1591-9, eqs. 1-2) is available with ``smoothing = b > 0``
 (``b = 10`` is OpenSim Moco's ``DeGrooteFregly2016Muscle`` default; the paper prints 0.1).
 Time constants ``tau_act = 15 ms``, ``tau_deact = 60 ms`` (De Groote et al. 2016). On the
 JW gait cycle the tanh form did not converge within 1000 IPOPT iterations (its switch
-makes the defects strongly nonconvex), the Raasch form converges in ~500 iterations
-from the static solution: hence the default.
+makes the defects strongly nonconvex), the Raasch form converges from the static solution
+(84 / 90 / 107 IPOPT iterations on ngait_og5 / bouncy7 / mtpgait3): hence the default.
 
 Transcription: first-order Radau IIA collocation (backward Euler) on the frames' grid,
 L-stable, so it stays well behaved when ``tau << h`` (the fast-activation limit below),
@@ -49,8 +49,16 @@ Objective, the time integral over the cycle (trapezoidal frame weights ``w_k``)
 
 so that in the limit ``tau -> 0`` (``e = a``) each frame's term is the static problem's
 ``sum a^2 + W sum rho^2`` times ``w_k``: the static optimisation is the fast-activation
-limit of this problem (test). One NLP over all frames (IPOPT through ``casadi.nlpsol``),
-the per-frame equations a CasADi function ``map``-ped over the frames.
+limit of this problem (test). One NLP over all frames (IPOPT through ``casadi.nlpsol``, exact
+Hessian): the balances, linear in the unknowns, as one sparse block-diagonal matrix, the defects
+elementwise on the (muscles x frames) arrays.
+
+Local optima. The Raasch rate is not monotonic in ``e`` when ``a > tau_act / (tau_deact - tau_act)
+= 1/3``, so a muscle can deactivate with ``e = 0`` or with a small positive ``e``: the NLP has many
+local optima that differ in a few frames' excitations (objective 1e-7..2e-2 relative apart, loads up
+to 0.6 BW). Which one IPOPT reaches depends on its path: starting points, barrier settings and
+objective scaling other than these moved it to another optimum on ngait_og5
+(``scripts/knee_collocation_speed.py``, which also checks that a change leaves the solution as it was).
 """
 from __future__ import annotations
 
