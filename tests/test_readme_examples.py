@@ -32,10 +32,9 @@ SLOW = {
                              "the batch command itself is tested in test_batch.py",
     "ocp-constraints bench --readme": "the full benchmark (about 6 min); tested in test_bench_report.py",
     "ocp-constraints bench --quick": "41 s of CPU, 2 min 51 s of wall time under load; tested in test_bench_report.py",
-    "ocp-constraints knee $A --method collocation": "the knee's collocation over the whole 120 Hz cycle: 37 s of CPU "
-                                                   "(58 s of wall time under load 4, 3 min under load 10), as much as "
-                                                   "all the other commands together; the same command on the cycle "
-                                                   "at 30 Hz is test_knee_collocation.py::"
+    "ocp-constraints knee $A --method collocation": "the knee's collocation over the whole 120 Hz cycle: about 7 s "
+                                                   "of CPU (5 s in IPOPT), a long run for a test; the same command "
+                                                   "on the cycle at 30 Hz is test_knee_collocation.py::"
                                                    "test_cli_collocation_writes_summary",
 }
 
