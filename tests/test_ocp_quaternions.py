@@ -128,8 +128,12 @@ def test_a_free_floating_quaternion_base_solves_alike_in_joint_and_maximal_coord
     for sol in (joint, maximal):
         q = np.vstack([sol.sample(f"base.q{c}") for c in "wxyz"])
         assert np.abs(np.linalg.norm(q, axis=0) - 1.0).max() < 1e-9
-    assert joint.objective == pytest.approx(maximal.objective, rel=1e-8)      # measured 3e-11 apart
-    assert joint.sample("base.qz")[-1] == pytest.approx(maximal.sample("base.qz")[-1], abs=1e-9)
+    # Two NLPs, two discretizations: the joint form's optimum is 6.5e-9 above the maximal one's at N = 5
+    # (9e-10 at N = 10; the maximal one changes by 1e-11), and IPOPT's stopping point in joint coordinates
+    # moved it by up to 3.2e-8 in a fresh CI clone. A wrong treatment of the quaternion is off by orders
+    # of magnitude (its silent rescaling: 0.0002 for 1.495), a wrong start does not solve at all.
+    assert joint.objective == pytest.approx(maximal.objective, rel=1e-6)
+    assert joint.sample("base.qz")[-1] == pytest.approx(maximal.sample("base.qz")[-1], abs=1e-6)
     assert abs(joint.sample("base.qz")[-1]) > 0.1         # the reaction turns the base: a real test of the coupling
 
 
