@@ -138,7 +138,7 @@ def test_a_free_floating_quaternion_base_solves_alike_in_joint_and_maximal_coord
     assert abs(joint.sample("base.qz")[-1]) > 0.1         # the reaction turns the base: a real test of the coupling
 
 
-@pytest.mark.parametrize("coordinates", ["maximal", "joint"])
+@pytest.mark.parametrize("coordinates", ["maximal", "joint", "condensed"])
 @pytest.mark.parametrize("mesh", [oc.Radau(4, degree=3), oc.Radau(3, degree=7), oc.Radau(mesh=(0, 0.3, 1.0), degrees=(5, 3))],
                          ids=["radau3", "radau7", "hp"])
 def test_the_rows_released_at_the_ends_are_the_given_quaternions_lengths(coordinates, mesh):

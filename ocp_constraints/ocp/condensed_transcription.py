@@ -155,6 +155,8 @@ class CondensedTranscription(Transcription):
                                [[self.fractions[i], self.quadrature[i], *s.T_value] for i in range(lay.n_points)],
                                [c.lower for c in pr.path_constraints], [c.upper for c in pr.path_constraints]))
         held = [0, *lay.slack_points]
+        # Where each held point's position rows are (after G u + e = 0): Transcription._fixed_length_rows.
+        self.position_rows_at = {int(i): ("constraints", r, lay.nc) for r, i in enumerate(held)}
         if lay.nc or lay.nh:
             out.append(element("constraints", ca.vertcat(x, *s.T_z), ca.vertcat(frac, *s.T_c),
                                s.point["constraints"](x, t), 0,

@@ -119,23 +119,19 @@ class Transcription(ElementKinds):
         constraint Jacobian rank-deficient. Released (no bounds), not removed: the NLP's shape stays one per
         mesh. Measured on a free-floating base with an arm (tests/test_ocp_quaternions.py), Radau 7
         N = 5: 134 IPOPT iterations with the redundant row, 16 with it released (14-16 with other ends given)."""
-        e, lay = self.eqs, self.layout
+        e = self.eqs
         bodies = getattr(e, "unit_length_bodies", [])
         if not bodies:
             return []
         values = getattr(self, "user_problem", self.problem)
-        first = e.nu + e.nc + e.phi.numel()
-        if self.from_speeds:
-            label = self.local[-1].label
-            name = "collocation_point" if len(self._groups()) == 1 else f"collocation_point_{label}"
-            end = (name, sum(1 for local in self.local if local.label == label) * (len(self.local[-1].tau) - 1) - 1)
-        else:
-            end = ("point", lay.n_points - 1)
         rows = []
-        for (element, instance), given in ((("point", 0), values.initial_values), (end, values.final_values)):
+        for point, given in ((0, values.initial_values), (self.layout.n_points - 1, values.final_values)):
+            if point not in self.position_rows_at:      # no position rows there (condensed: not a slack point)
+                continue
+            element, instance, first = self.position_rows_at[point]
             for k, body in enumerate(bodies):
-                if all(f"{body}.q{c}" in given for c in "wxyz"):
-                    rows.append(self.block.rows(element, instance) + first + k)
+                if all(f"{body}.q{c}" in given for c in "wxyz"):    # the length rows follow phi
+                    rows.append(self.block.rows(element, instance) + first + e.phi.numel() + k)
         return rows
 
     def initial_guess(self) -> np.ndarray:

@@ -105,6 +105,9 @@ class ElementKinds:
             return ca.vertcat(x, a, lam, w, *s.T_z), ca.vertcat(frac, quad, *s.T_c), rows, cost
 
         at = np.arange(1 if self.from_speeds else lay.n_points)[:, None]
+        # Where each point's position rows are: element, instance, first row in it (the dynamics and
+        # velocity rows come first; read by Transcription._fixed_length_rows).
+        self.position_rows_at = {int(k): ("point", int(k), e.nu + e.nc) for k in at[:, 0]}
         out = [instances("point", self._kind(s, ("point",), build_point),
                          _columns(len(at), index["x"](at), index["a"](at), index["lam"](at), index["w"](at), index["T"]),
                          _columns(len(at), self.fractions[at], self.quadrature[at], s.T_value), lo, hi)]
@@ -127,8 +130,10 @@ class ElementKinds:
             js = np.tile(np.arange(1, p), len(intervals))
             i = (self.offsets[ks] + js)[:, None]
             speeds = index["x"]((self.offsets[ks][:, None] + np.arange(p))[:, :, None])[:, :, e.nq :]
+            name = "collocation_point" if len(groups) == 1 else f"collocation_point_{label}"
+            self.position_rows_at.update({int(point): (name, r, e.nu + e.nc) for r, point in enumerate(i[:, 0])})
             out.append(instances(
-                "collocation_point" if len(groups) == 1 else f"collocation_point_{label}",
+                name,
                 self._kind(s, ("collocation_point", label), build_collocation),
                 _columns(len(i), index["x"](i), index["lam"](i), index["w"](i), speeds.reshape(len(i), -1), index["T"]),
                 _columns(len(i), self.fractions[i], self.quadrature[i], C[:, js].T, (mesh[ks + 1] - mesh[ks])[:, None],
