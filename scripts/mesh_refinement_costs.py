@@ -22,7 +22,7 @@ from numpy.polynomial import legendre
 from ocp_constraints.bench import ocp_suite
 from ocp_constraints.ocp import transcription as transcription_module
 from ocp_constraints.ocp.error_estimate import estimate_error, names
-from ocp_constraints.ocp.mesh_refinement import companion_of
+from ocp_constraints.ocp.mesh_companions import companion_of
 from ocp_constraints.ocp.schemes import Radau
 from ocp_constraints.scenes.registry import build_task
 

@@ -127,7 +127,7 @@ def test_a_solution_judges_another_mesh_only_where_it_halves_each_interval_or_ra
     the same intervals judge only at two degrees more; a cut at 0.3 of a 0.5 interval is no half (at one degree
     more); equal
     intervals at equal degrees, or a mesh point missing, never judge."""
-    from ocp_constraints.ocp.mesh_refinement import finer, pilot_of
+    from ocp_constraints.ocp.mesh_companions import finer, pilot_of
 
     coarse = Radau(mesh=(0.0, 0.5, 1.0), degrees=(3, 6))
     assert finer(coarse, pilot_of(coarse))

@@ -54,7 +54,7 @@ import numpy as np
 
 from ..errors import ModelError, OCPSolveError
 from .error_estimate import DECAY_LIMIT, UNRESOLVED_OBJECTIVE, UNRESOLVED_STATE, estimate_error, legendre_decay
-from .mesh_companions import (COMPANION_EXTRA, MAX_DEGREE, _degrees, _ends, companion_of, covered, finer,  # noqa: F401
+from .mesh_companions import (MAX_DEGREE, _degrees, _ends, companion_of, covered, finer,
                               finer_at_hand, pilot_of, uniform_step)
 from .schemes import Radau
 from .switch_detection import detect_switches, jump_windows, split_points, touched
