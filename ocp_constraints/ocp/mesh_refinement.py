@@ -189,7 +189,7 @@ def _timed_solve(problem, scheme: Radau, ipopt_options: dict, warm_start, progre
     return sol, elapsed, cpu_used
 
 
-def _flag_nonsmooth(sol, tol: float, record: dict, windows=()) -> None:
+def _flag_nonsmooth(sol, tol: float, record: dict, smoothness: tuple, windows=()) -> None:
     """Withdraw "met" where the estimate cannot be trusted (and say so where it is not met either):
     intervals whose inputs or multipliers are not smooth (their Legendre coefficients fall no faster
     than half a step's, :func:`.error_estimate.legendre_decay`) and whose polynomial's last term is
@@ -201,8 +201,8 @@ def _flag_nonsmooth(sol, tol: float, record: dict, windows=()) -> None:
     Except inside ``windows`` (:func:`.switch_detection.jump_windows`): there a jump between an
     input's bounds was located from the bounds and has a mesh point within its bracket; the states'
     estimate covers it (continuous, compared everywhere), the inputs and multipliers are left out of
-    theirs there, and the record says so (``jump_windows``, and the message)."""
-    decay, tail = legendre_decay(sol)
+    theirs there, and the record says so (``jump_windows``, and the message). ``smoothness``: ``legendre_decay(sol)``."""
+    decay, tail = smoothness
     mesh = sol.transcription.scheme.mesh_fractions
     mid = (mesh[:-1] + mesh[1:]) / 2
     in_window = np.zeros(len(mid), bool)
@@ -229,13 +229,13 @@ def _flag_nonsmooth(sol, tol: float, record: dict, windows=()) -> None:
         f"near it"))
 
 
-def _nonsmooth_splits(sol, tol: float, windows=()) -> dict[int, list[float]]:
+def _nonsmooth_splits(sol, tol: float, smoothness: tuple, windows=()) -> dict[int, list[float]]:
     """Where the estimate is met but not trusted (:func:`_flag_nonsmooth`: inputs or multipliers not
     smooth, their last Legendre term above ``tol``, outside the jump ``windows``): each such interval
     halved, for :func:`refine`. No bound located a switch there, so the middle; the next solution says
     whether a polynomial follows each half (rolling-disk drive at 1e-3: the first interval, its friction
-    cone active up to a mesh point, decay 0.50 of a step's at degree 3)."""
-    decay, tail = legendre_decay(sol)
+    cone active up to a mesh point, decay 0.50 of a step's at degree 3). ``smoothness``: ``legendre_decay(sol)``."""
+    decay, tail = smoothness
     mesh = sol.transcription.scheme.mesh_fractions
     mid = (mesh[:-1] + mesh[1:]) / 2
     out = {}
@@ -331,13 +331,14 @@ def solve_to_tolerance(problem, tolerance, method=None, ipopt_options: dict | No
             continue
         # Switches inside intervals (switch_detection): there the estimate is no bound; split at them.
         met = all(est.totals[q] <= tol for q in GATED)
+        smoothness = legendre_decay(sol)    # Legendre decay and last term per interval: read three times below
         switches = split_points(found, scheme.mesh_fractions, MIN_INTERVAL, tol, ratio) or (
-            _nonsmooth_splits(sol, tol, windows) if met and r < max_refinements else {})
+            _nonsmooth_splits(sol, tol, smoothness, windows) if met and r < max_refinements else {})
         entry["switches"] = [f for k in sorted(switches) for f in switches[k]]
         if met and not switches:
             record.update(met=True, message=f"estimated error at most {tol:g} after {r} refinements "
                                             f"({scheme.intervals} intervals, {scheme.point_count} points)")
-            _flag_nonsmooth(sol, tol, record, windows)
+            _flag_nonsmooth(sol, tol, record, smoothness, windows)
             break
         if r == max_refinements:
             record["message"] = (f"estimate still above {tol:g} after {r} refinements (states "
@@ -350,12 +351,12 @@ def solve_to_tolerance(problem, tolerance, method=None, ipopt_options: dict | No
                 spots = ", ".join(f"{a:.4g}-{b:.4g}" for a, b in record["rough_intervals"][:4])
                 record["message"] += (f"; the estimate stays above it on intervals that refinement does not improve "
                                       f"(a switch: inputs and multipliers jump there), at fractions {spots} of the horizon")
-            _flag_nonsmooth(sol, tol, record, windows)
+            _flag_nonsmooth(sol, tol, record, smoothness, windows)
             break
         # Rough intervals (see refine): where the solution switches; a jump of the inputs and
         # multipliers there keeps their largest error near the jump's size at any mesh.
         mesh = scheme.mesh_fractions
-        nonsmooth = (legendre_decay(sol)[0] > DECAY_LIMIT) & ~touched(found, mesh)   # not rough: a located switch
+        nonsmooth = (smoothness[0] > DECAY_LIMIT) & ~touched(found, mesh)   # not rough: a located switch
         rough = [[float(a), float(b)] for a, b, q, j in zip(mesh[:-1], mesh[1:], ratio, nonsmooth)
                  if q > 1.0 and j and (parents or {}).get(_ends(a, b), np.inf) < 10.0 * q]
         entry["rough_intervals"] = rough
