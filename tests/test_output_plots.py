@@ -209,3 +209,24 @@ def test_the_first_gait_figure_after_a_warm_up_is_the_same_png_as_a_new_one(monk
     first = joint_figure(*args, title="knee_r")
     assert first is warm and not plots._WARM
     assert _png(first) == _png(joint_figure(*args, title="knee_r"))
+
+
+def test_a_drawing_process_ended_by_the_parent_dies_of_sigterm_and_runs_no_python(monkeypatch):
+    """The command line's SIGTERM handler raises RunInterrupted; a forked drawing child inherited it, so the
+    parent's terminate() of a child on its way out printed a raw 'Process ocp-drawing:' traceback. The child
+    must die of the signal itself (exit code -SIGTERM), whatever the parent's handler is."""
+    import signal
+
+    import pytest
+
+    from ocp_constraints.output.drawing_process import DrawingProcess
+    from ocp_constraints.output.signals import interrupt_on_signals
+
+    monkeypatch.setenv("OCP_OUTPUT_PROCESSES", "2")
+    with interrupt_on_signals():
+        dp = DrawingProcess()
+        if dp.error is not None:
+            pytest.skip(f"no drawing process here: {dp.error}")
+        proc = dp._proc
+        dp.close()                                        # terminate() while the child waits for a call
+    assert proc.exitcode == -signal.SIGTERM

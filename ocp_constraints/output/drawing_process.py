@@ -26,10 +26,18 @@ from collections.abc import Callable
 
 from .forked import processes
 
+_CHILD_SIGNALS = {signal.SIGINT, signal.SIGTERM}
+
 
 def _serve(conn, warm: Callable | None = None) -> None:
     """The child: import matplotlib (the slow part) and run ``warm()`` (e.g. a first draw), then one call on request."""
-    signal.signal(signal.SIGINT, signal.SIG_IGN)      # Ctrl-C is the parent's to handle; it ends us
+    # Forked with SIGINT and SIGTERM blocked (DrawingProcess.__init__): the handlers we inherit raise
+    # RunInterrupted, which in a child printed raw tracebacks ("Process ocp-drawing:") and, arriving during the
+    # fork's own bookkeeping, was swallowed and left the child running. Ctrl-C is the parent's to handle; the
+    # parent ends us with SIGTERM, which now kills at once, also if it came before this line.
+    signal.signal(signal.SIGINT, signal.SIG_IGN)
+    signal.signal(signal.SIGTERM, signal.SIG_DFL)
+    signal.pthread_sigmask(signal.SIG_UNBLOCK, _CHILD_SIGNALS)
     try:
         from .plots import _load
 
@@ -68,6 +76,7 @@ class DrawingProcess:
             return
         ctx = multiprocessing.get_context("fork")
         self._conn, child = ctx.Pipe()
+        mask = signal.pthread_sigmask(signal.SIG_BLOCK, _CHILD_SIGNALS)   # see _serve; ours held meanwhile
         try:
             proc = ctx.Process(target=_serve, args=(child, warm), name="ocp-drawing", daemon=True)
             proc.start()
@@ -76,6 +85,7 @@ class DrawingProcess:
             self._conn.close()
             return
         finally:
+            signal.pthread_sigmask(signal.SIG_SETMASK, mask)
             child.close()
         self._proc = proc
 
