@@ -57,3 +57,24 @@ def test_an_edit_after_a_solve_takes_effect(edit, coordinates):
     assert abs(after.objective - before.objective) > 1e-3 * abs(before.objective)
     assert after.objective == pytest.approx(fresh.objective, rel=1e-8)
     assert np.abs(after.sample("motor") - fresh.sample("motor")).max() <= 1e-6
+
+
+@pytest.mark.parametrize("coordinates, start, tolerance", [("maximal", None, 1e-1), ("joint", None, 1e-2)])
+def test_an_edit_between_two_refined_solves_takes_effect(coordinates, start, tolerance):
+    """A refinement's meshes after the first (its pilot, companions, next meshes) take the first mesh's point
+    functions (mesh_refinement._build, ``like=``); an edit between two refined solves must reach every mesh
+    of the second: it gives what the edited problem gives when it never solved (the same meshes, the same
+    optimum). The maximal form on a short refinement (its NLP is 6x the joint one's)."""
+    def weight(p):
+        p.integral_terms[0].weight *= 3.0
+
+    problem = _swing_up(coordinates=coordinates)
+    before = problem.solve(start, tolerance=tolerance)
+    weight(problem)
+    after = problem.solve(start, tolerance=tolerance)
+    fresh = _swing_up(weight, coordinates).solve(start, tolerance=tolerance)
+    assert len(after.mesh_refinement["history"]) == len(fresh.mesh_refinement["history"])
+    assert abs(after.objective - before.objective) > 1e-3 * abs(before.objective)
+    assert after.mesh_refinement["degrees"] == fresh.mesh_refinement["degrees"]
+    assert after.objective == pytest.approx(fresh.objective, rel=1e-8)
+    assert np.abs(after.sample("motor") - fresh.sample("motor")).max() <= 1e-6

@@ -78,10 +78,16 @@ def transcribe_joint(problem, scheme) -> Transcription:
 class JointTranscription(Transcription):
     """The NLP of a problem in joint coordinates; solutions come back in the bodies' coordinates."""
 
-    def __init__(self, problem, scheme, reduced: JointCoordinates | None = None):
+    def __init__(self, problem, scheme, reduced: JointCoordinates | None = None, like: JointTranscription | None = None):
+        """``like``: a joint transcription of the same problem, unchanged since (a refinement's earlier mesh):
+        its joint coordinates, problem view and point functions are taken, not built again."""
         self.user_problem = problem
-        self.reduced = JointCoordinates(problem.eqs) if reduced is None else reduced
-        super().__init__(ReducedProblem(problem, self.reduced), scheme)
+        if like is not None:
+            self.reduced, view = like.reduced, like.problem
+        else:
+            self.reduced = JointCoordinates(problem.eqs) if reduced is None else reduced
+            view = ReducedProblem(problem, self.reduced)
+        super().__init__(view, scheme, like)
 
     # -- bounds ----------------------------------------------------------------------------------
     def _bounds(self, x0: np.ndarray) -> tuple[np.ndarray, np.ndarray]:

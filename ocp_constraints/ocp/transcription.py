@@ -51,9 +51,11 @@ DEFAULT_IPOPT = {"ipopt.tol": 1e-10, "ipopt.constr_viol_tol": 1e-10, "ipopt.max_
 class Transcription(ElementKinds):
     """The NLP of one problem and one scheme, built once, solvable many times."""
 
-    def __init__(self, problem, scheme: Scheme):
+    def __init__(self, problem, scheme: Scheme, like: Transcription | None = None):
+        """``like``: a transcription of the same problem, unchanged since it was built (the meshes of one
+        refinement, :mod:`.mesh_refinement`), whose point functions this one takes instead of building them."""
         started = time.perf_counter()
-        self.problem, self.scheme = problem, scheme
+        self.problem, self.scheme, self._like = problem, scheme, like
         e = problem.eqs
         self.eqs = e
         nx = e.nq + e.nu

@@ -72,9 +72,17 @@ class ElementKinds:
         """The NLP's pieces: dynamics at the points, defects on the intervals, t0 and end rows."""
         e, lay = self.eqs, self.layout
         T = SX.sym("T")
-        point = self._point_functions()
+        # The point functions and their fingerprint, built once per refinement: the meshes of one
+        # refinement (``_like``, see Transcription) are of one problem, which nothing edits between them
+        # (building and serializing them again cost ~2 ms a mesh on the swing-up).
+        like = getattr(self, "_like", None)
+        point, fingerprint = like.point_pieces if like is not None else (None, None)
+        if point is None:
+            point = self._point_functions()
+            fingerprint = _fingerprint(point)
+        self.point_pieces = (point, fingerprint)
         # The horizon: a variable of every element (free final time) or a constant.
-        s = SimpleNamespace(point=point, fingerprint=_fingerprint(point), index=self._indices(), T=T,
+        s = SimpleNamespace(point=point, fingerprint=fingerprint, index=self._indices(), T=T,
                             x=SX.sym("x", lay.nx), a=SX.sym("a", e.nu), lam=SX.sym("lam", e.nc),
                             w=SX.sym("w", lay.n_in), none=SX.sym("none", 0),
                             T_z=[T] if lay.free_time else [], T_c=[] if lay.free_time else [T],
