@@ -15,8 +15,8 @@ For a model in neither, the data are built with the documented preprocessing:
 
 * muscle paths: OpenSim's own path lengths sampled over the range of motion, in its own
   process (``python -m ocp_constraints.biomech.knee_paths_opensim``; needs the optional
-  ``opensim`` extra, ``pip install -e ".[opensim]"``), with OpenSim's moment arms
-  (``computeMomentArm``), then the joint fits of :func:`~.knee_path_fits.fit_paths` (the same
+  ``opensim`` extra, ``pip install -e ".[opensim]"``), with the moment arms of a unit tension
+  along OpenSim's current path (:mod:`.knee_paths_opensim`), then the joint fits of :func:`~.knee_path_fits.fit_paths` (the same
   route as ``scripts/knee_muscle_fits.py``);
 * contact geometry: the circle and plane fits of :func:`~.knee_contact.implant_geometry`
   from the implant's contact meshes (``femPoints_188.csv``, ``tibPoints_100.csv``,
@@ -165,6 +165,7 @@ def build_muscle_paths(model, out: Path, samples: int = 4000, seed: int = 7, raw
             "unit_suffix": raw["unit_suffix"], "unit_fits": units, "sweep_knee_flexion": raw["sweep_knee_flexion"],
             "sweep_muscles": raw["muscles"], "sweep_moment_arms_opensim": raw["sweep_moment_arms"],
             "sweep_moment_arm_knee_fd_coupled_opensim": raw["sweep_moment_arm_knee_fd_coupled"],
+            "sweep_moment_arms_string": raw.get("sweep_moment_arms_string", {}),
             "unspanned_moment_arms_max_opensim": raw.get("unspanned_moment_arms_max", {})}
     if "moment_arms" in raw:       # OpenSim's moment arms at held-out poses (not fitted on), for the tests
         data["holdout_moment_arms_opensim"] = holdout_arms(raw)
