@@ -136,3 +136,15 @@ def test_a_solution_judges_another_mesh_only_where_it_halves_each_interval_or_ra
     assert not finer(coarse, Radau(mesh=(0.0, 0.3, 0.5, 1.0), degrees=(4, 4, 8)))
     assert not finer(Radau(mesh=(0.0, 0.25, 0.5, 1.0), degrees=(7, 7, 7)), pilot_of(coarse))
     assert not finer(coarse, Radau(mesh=(0.0, 1.0), degrees=(9,)))
+
+
+def test_a_raised_degree_is_rounded_up_to_one_whose_element_kinds_the_refinement_has_built():
+    """refine with ``built``: ratio 16 at degree 3 asks for 3 + 2 = 5; with degrees 3 and 7 built it gets 7 (no new
+    element kinds), with 3 and 6 built 6, with none above 5 built 5; never above MAX_DEGREE (9 built: 5)."""
+    from ocp_constraints.ocp.mesh_refinement import refine, reused_degree
+
+    scheme = Radau(mesh=(0.0, 0.5, 1.0), degrees=(3, 3))
+    for built, degree in (({3, 7}, 7), ({3, 6, 7}, 6), ({3, 4}, 5), (set(), 5), ({3, 9}, 5)):
+        new, _ = refine(scheme, np.array([16.0, 0.5]), built=built)
+        assert list(new.points_per_interval - 1) == [degree, 3] and list(new.mesh_fractions) == [0.0, 0.5, 1.0]
+        assert reused_degree(5, built) == degree

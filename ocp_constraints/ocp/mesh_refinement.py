@@ -104,7 +104,8 @@ def start_scheme(method) -> Radau:
 
 
 def refine(scheme: Radau, ratio: np.ndarray, parents: dict | None = None,
-           nonsmooth: np.ndarray | None = None, switches: dict | None = None) -> tuple[Radau, dict]:
+           nonsmooth: np.ndarray | None = None, switches: dict | None = None,
+           built: set | frozenset = frozenset()) -> tuple[Radau, dict]:
     """The next mesh, and each new interval's parent ``(ends) -> ratio``.
 
     ``ratio[k]`` is interval ``k``'s estimate over the tolerance (the largest of the gated
@@ -122,6 +123,9 @@ def refine(scheme: Radau, ratio: np.ndarray, parents: dict | None = None,
     whatever its ratio: each piece is then a smooth arc whose companion estimate holds, where halving
     would narrow the switch down only by two per refinement (minimum-time swing-up at 1e-3: 10
     halvings, the switch still inside an interval, true error 1.7x the estimate).
+
+    ``built``: degrees whose element kinds this refinement has built already (:func:`reused_degree`): a
+    raised degree is rounded up to the nearest of them.
     """
     mesh, degrees = scheme.mesh_fractions, _degrees(scheme)
     new_mesh, new_degrees, born = [0.0], [], {}
@@ -149,7 +153,7 @@ def refine(scheme: Radau, ratio: np.ndarray, parents: dict | None = None,
         elif rough:
             pieces, degree = [(a + b) / 2, b], MIN_DEGREE
         elif needed <= MAX_DEGREE:
-            pieces, degree = [b], needed
+            pieces, degree = [b], reused_degree(needed, built)
         else:
             # At MAX_DEGREE the ratio left is r / 4^(MAX_DEGREE - d); n pieces divide it by about
             # n^MAX_DEGREE (the multipliers' order; the states' is one more): as many pieces as that
@@ -164,6 +168,17 @@ def refine(scheme: Radau, ratio: np.ndarray, parents: dict | None = None,
         new_degrees.extend([degree] * len(pieces))
     new_mesh[-1] = 1.0
     return Radau(mesh=tuple(float(m) for m in new_mesh), degrees=tuple(new_degrees)), born
+
+
+def reused_degree(needed: int, built) -> int:
+    """``needed``, or the smallest degree above it up to :data:`MAX_DEGREE` whose element kinds are ``built``.
+
+    Why: a degree new to the refinement costs its element kinds (the defects of an interval of that
+    degree, and their symbolic Jacobian and Hessian, :mod:`.transcription_elements`, :mod:`.nlp_assembly`):
+    5-17 ms of CPU each on the swing-up in joint coordinates (degrees 4-9), more on larger models; a degree
+    or two more on the intervals that are raised costs a few points, and errs on the accurate side (swing-up
+    at 1e-4: degrees 5-7 on 10 intervals, 63 points, two new kinds; all 7: 71 points, none)."""
+    return min([d for d in built if needed <= d <= MAX_DEGREE], default=needed)
 
 
 def _build(problem, scheme: Radau, first):
@@ -362,7 +377,8 @@ def solve_to_tolerance(problem, tolerance, method=None, ipopt_options: dict | No
         rough = [[float(a), float(b)] for a, b, q, j in zip(mesh[:-1], mesh[1:], ratio, nonsmooth)
                  if q > 1.0 and j and (parents or {}).get(_ends(a, b), np.inf) < 10.0 * q]
         entry["rough_intervals"] = rough
-        new, parents = refine(scheme, ratio, parents, nonsmooth, switches)
+        new, parents = refine(scheme, ratio, parents, nonsmooth, switches,
+                              {int(d) for s in at_hand for d in _degrees(s.transcription.scheme)})
         if new == scheme:
             record["message"] = (f"estimate above {tol:g} on intervals that cannot be refined further "
                                  f"(shorter than {MIN_INTERVAL:g} of the horizon at degree {MAX_DEGREE})")
