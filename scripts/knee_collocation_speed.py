@@ -10,7 +10,10 @@ iterations and IPOPT's own time split (``t_proc_*`` / ``t_wall_*`` of ``solver.s
 of the code as it is; without it, the solution is compared with the stored one: the objective's relative
 difference (the objective recomputed here from the solution, trapezoidal weights, not read from the solver)
 and the largest difference of any contact load (medial, lateral, total) at any frame, in body weights
-(preregistration C17: 1e-6 relative and 1e-3 BW). ``--data``: the folder with IK/, GRF/, KCF/ of the JW trials
+(preregistration C17: 1e-6 relative and 1e-3 BW). The stored file also holds the solve's inputs (``t, Qc, R, A,
+F0``, keyword arguments, body weight), and the comparison solves on those: the knee model keeps changing (muscle
+paths refitted, passive moments), which changes the optimum without any change of the solver; a note says when
+the knee command's inputs of today differ from the stored ones. ``--data``: the folder with IK/, GRF/, KCF/ of the JW trials
 (ReducePoly_forMSK at 0b5ecfa, ExampleTrackingSimulations/OpenSimModel/subject_GC) for bouncy7 and mtpgait3;
 ngait_og5 is in the shared data.
 """
@@ -98,8 +101,25 @@ def option_value(text: str):
     return text
 
 
+def stored_inputs(before) -> tuple[tuple, dict, float]:
+    """The ``(t, Qc, R, A, F0)``, keyword arguments and body weight saved with a 'before' solution."""
+    args = tuple(before[k] for k in ("t", "Qc", "R", "A", "F0"))
+    return args, {"muscles_on": bool(before["muscles_on"])}, float(before["bw"])
+
+
+def same_inputs(a: tuple, b: tuple) -> bool:
+    return all(np.shape(x) == np.shape(y) and np.allclose(x, y, rtol=1e-12, atol=1e-12) for x, y in zip(a, b))
+
+
 def main(trial: str, data: Path, runs: int, save_before: Path | None, options: dict | None = None) -> None:
     args, kwargs, bw = collocation_inputs(trial, data)
+    before = OUT / f"before_{trial}.npz"
+    if save_before is None and before.exists() and "Qc" in np.load(before).files:
+        stored = stored_inputs(np.load(before))
+        if not same_inputs(args, stored[0]) or kwargs != stored[1]:
+            print(f"  note: the knee command's inputs of today differ from those stored in {before} (the model "
+                  "changed): the solve below uses the stored ones")
+        args, kwargs, bw = stored
     if options:
         kwargs = {**kwargs, "ipopt_options": options}
         print(f"  IPOPT options: {options}")
@@ -121,10 +141,11 @@ def main(trial: str, data: Path, runs: int, save_before: Path | None, options: d
     if save_before is not None:
         save_before.parent.mkdir(parents=True, exist_ok=True)
         np.savez(save_before, t=t, objective=J, loads=loads, activation=res.activation, excitation=res.excitation,
-                 reserve=res.reserve, cpu=cpu, wall=wall, iterations=stats.get("iter_count", -1), bw=bw)
+                 reserve=res.reserve, cpu=cpu, wall=wall, iterations=stats.get("iter_count", -1), bw=bw,
+                 Qc=args[1], R=args[2], A=args[3], F0=np.asarray(args[4], float),
+                 muscles_on=bool(kwargs.get("muscles_on", True)), options=repr(options or {}))
         print(f"  saved as the 'before' solution: {save_before}")
         return
-    before = OUT / f"before_{trial}.npz"
     if not before.exists():
         print(f"  no stored 'before' solution {before}: run with --save-before on the code before the change")
         return

@@ -75,6 +75,17 @@ from ..output.signals import call_interruptibly
 TAU_ACT = 0.015        # s, De Groote et al. 2016
 TAU_DEACT = 0.060      # s, De Groote et al. 2016
 SMOOTHING = 0.0        # 0: Raasch et al. 1997 form; b > 0: De Groote et al. 2016 tanh(b (e - a)) (Moco: b = 10)
+# How IPOPT's MUMPS factorizes the KKT matrix (about 90 % of the solve; 160 factorizations on ngait_og5, about two
+# per iteration: the nonconvex defects need inertia corrections). None of these changes a step beyond rounding
+# (the same iterates, objective to 1e-13, loads to 1e-9 BW on ngait_og5, bouncy7, mtpgait3):
+# - mumps_mem_percent 100: workspace 2x MUMPS's estimate, not 11x (IPOPT's 1000): the 88 MB it allocated, and the
+#   kernel zeroed, per factorization made 0.7 s of system time; IPOPT doubles it and refactors if MUMPS needs more;
+# - mumps_permuting_scaling 0 with pivot_order 2 (AMF): no weighted-matching pairs constrain the ordering, which then
+#   needs 2.7e7 instead of 4.1e7 operations per factorization (MUMPS's estimate, largest front 205 instead of 229);
+# - min_refinement_steps 0: a refinement solve only when the residual asks for it (IPOPT's default does one always).
+# Measured by python scripts/knee_collocation_kkt.py (candidates, CPU and wall, same-optimum check).
+KKT_OPTIONS = {"ipopt.mumps_mem_percent": 100, "ipopt.mumps_permuting_scaling": 0, "ipopt.mumps_pivot_order": 2,
+               "ipopt.min_refinement_steps": 0}
 
 
 def activation_rate(e, a, tau_act: float = TAU_ACT, tau_deact: float = TAU_DEACT, b: float = SMOOTHING):
@@ -161,7 +172,8 @@ def solve_collocation(t, Qc, R, A, F0, muscles_on: bool = True, contact_nonnegat
            "g": ca.vertcat(ca.mtimes(B, X) - ca.DM(rhs), ca.vec(defect))}
     solver = ca.nlpsol("knee_col", "ipopt", nlp, {"ipopt.print_level": print_level, "print_time": False, "ipopt.sb": "yes",
                                                    "ipopt.tol": tol, "ipopt.constr_viol_tol": 1e-10,
-                                                   "ipopt.max_iter": max_iter, **(ipopt_options or {})})
+                                                   "ipopt.max_iter": max_iter, **KKT_OPTIONS,
+                                                   **(ipopt_options or {})})
     built = time.perf_counter()
     lbx, ubx = np.full((nx, N), -np.inf), np.full((nx, N), np.inf)
     lbx[:2 * nm], ubx[:2 * nm] = 0.0, (1.0 if muscles_on else 0.0)
