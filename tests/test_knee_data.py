@@ -170,6 +170,30 @@ def test_knee_data_are_found_by_the_model_files_content(tmp_path, monkeypatch):
     assert geo == pytest.approx(jw.geometry, abs=1e-12)
 
 
+def test_cached_fits_of_an_older_preprocessing_are_not_used(tmp_path, monkeypatch):
+    """A fits file in the cache made before the moment arms were the string's (issue 15's fifth round: for the
+    gastrocnemii, computeMomentArm gave hip arms their path does not have) is refused, naming the file, when it
+    cannot be rebuilt; the package's own JW fits carry the current stamp."""
+    from ocp_constraints.biomech import knee_model_data as kd
+
+    monkeypatch.setenv("OCP_CONSTRAINTS_CACHE", str(tmp_path / "cache"))
+    monkeypatch.setattr(kd, "opensim_available", lambda: False)
+    other = tmp_path / "other.osim"
+    other.write_bytes(JW_MODEL.read_bytes() + b"\n")
+    folder = kd.cache_dir() / kd.model_sha256(other)
+    folder.mkdir(parents=True)
+    old = json.loads((kd.DATA_DIR / "jw_knee_muscle_paths.json").read_text())
+    assert old.pop("preprocessing") == kd.PREPROCESSING
+    (folder / kd.PATHS_NAME).write_text(json.dumps(old))
+    shutil.copy(kd.DATA_DIR / "jw_knee_implant_geometry.json", folder / kd.GEOMETRY_NAME)
+    with pytest.raises(KneeError, match=r"other\.osim: only muscle-path fits of an older preprocessing \(.*"
+                                        r"muscle_paths\.json; made with 'unknown'.*'opensim' package is not installed"):
+        kd.knee_model_data(other)
+    old["preprocessing"] = kd.PREPROCESSING          # the same file, stamped: used
+    (folder / kd.PATHS_NAME).write_text(json.dumps(old))
+    assert kd.knee_model_data(other).source.startswith("cache ")
+
+
 def test_knee_cli_refuses_another_model_without_fits(tmp_path, monkeypatch, capsys):
     from ocp_constraints.biomech import knee_model_data as kd
     from ocp_constraints.cli.knee import add_knee_parser, cli_knee

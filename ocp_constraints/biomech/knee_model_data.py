@@ -43,6 +43,9 @@ DATA_DIR = Path(__file__).resolve().parent / "data"
 INDEX_FILE = DATA_DIR / "knee_models.json"
 PATHS_NAME, GEOMETRY_NAME = "muscle_paths.json", "implant_geometry.json"
 HOLDOUT_STORED = 60     # held-out poses whose OpenSim moment arms are stored with the fits (tests)
+# the preprocessing that made a fits file: a cached file of another (older) one is not used (issue 15: before the
+# fifth round the moment arms were computeMomentArm's, before the fourth the lengths' alone)
+PREPROCESSING = "lengths and the string's moment arms along OpenSim's current path (issue 15, fifth round)"
 
 
 @dataclass
@@ -111,18 +114,30 @@ def knee_model_data(model, implant_meshes=None, build: bool = True) -> KneeModel
                             "tibPoints_100.csv, facesTib1_100.csv, facesTib2_100.csv, as in the JW workshop data)")
         _write_geometry(implant_meshes, geo_file)
         built.append("implant geometry")
-    if not paths_file.exists():
+    stale = paths_file.exists() and _preprocessing(paths_file) != PREPROCESSING
+    if not paths_file.exists() or stale:
         if not build or not opensim_available():
             why = "building them was not asked for" if not build else "the optional 'opensim' package is not installed"
-            raise KneeError(f"{model}: no muscle-path fits for this model file (SHA-256 {sha[:12]}...; the package "
+            have = (f"only muscle-path fits of an older preprocessing ({paths_file}; made with "
+                    f"'{_preprocessing(paths_file)}', not '{PREPROCESSING}')" if stale else
+                    "no muscle-path fits for this model file")
+            raise KneeError(f"{model}: {have} (SHA-256 {sha[:12]}...; the package "
                             f"has the JW model's only, and one model's fits are never used for another), and "
                             f"{why}: install it (pip install -e \".[opensim]\") so that OpenSim's paths of this "
                             "model are sampled and fitted (lengths and moment arms, about 3 minutes of CPU), "
                             "or use the JW model")
         build_muscle_paths(model, paths_file)
-        built.append("muscle-path fits")
+        built.append("muscle-path fits" + (" (the cached ones were of an older preprocessing)" if stale else ""))
     source = f"built for this model ({', '.join(built)}) in {folder}" if built else f"cache {folder}"
     return KneeModelData(sha, paths_file, stored_geometry(geo_file), geo_file, source)
+
+
+def _preprocessing(paths_file: Path) -> str:
+    """The ``preprocessing`` stamp of a fits file (``"unknown"`` for files made before stamps existed)."""
+    try:
+        return str(json.loads(Path(paths_file).read_text()).get("preprocessing", "unknown"))
+    except (OSError, ValueError):
+        return "unreadable"
 
 
 def _write_geometry(meshes, out: Path) -> None:
@@ -159,6 +174,7 @@ def build_muscle_paths(model, out: Path, samples: int = 4000, seed: int = 7, raw
         raise KneeError(f"{model}: cannot fit the sampled muscle paths: {exc}") from exc
     data = {"source": "OpenSim path lengths and moment arms (ocp_constraints.biomech.knee_paths_opensim), "
                       "polynomial fits (ocp_constraints/biomech/knee_path_fits.py)",
+            "preprocessing": PREPROCESSING,
             "opensim_version": raw["opensim_version"], "model": Path(str(model)).name,
             "model_sha256": model_sha256(model), "samples": len(raw["samples"]), "seed": raw.get("seed", seed),
             "knee_ty": raw["knee_ty"], "patella_coupling": raw["patella_coupling"], "fits": fits,
