@@ -1,8 +1,10 @@
-"""The knee muscle-path fits reproduce OpenSim's moment arms (computeMomentArm), not only its lengths (issue 15).
+"""The knee muscle-path fits reproduce OpenSim's moment arms, not only its lengths (issue 15).
 
-Checked at poses the fit never saw: the held-out poses stored with the fits (OpenSim's values from the
-preprocessing, ``holdout_moment_arms_opensim``), and, with the optional ``opensim`` extra, OpenSim itself at
-new random poses in its own process.
+The moment arm is that of a unit tension along OpenSim's current path (``knee_paths_opensim.string_moment_arms``),
+which is ``computeMomentArm`` for every muscle but the double-wrapped gastrocnemii (issue 15's audit). Checked at
+poses the fit never saw: the held-out poses stored with the fits (OpenSim's values from the preprocessing,
+``holdout_moment_arms_opensim``), and, with the optional ``opensim`` extra, OpenSim itself at new random poses and
+at gait poses, in its own process.
 """
 import importlib.util
 import json
