@@ -141,10 +141,54 @@ def test_a_solution_judges_another_mesh_only_where_it_halves_each_interval_or_ra
 def test_a_raised_degree_is_rounded_up_to_one_whose_element_kinds_the_refinement_has_built():
     """refine with ``built``: ratio 16 at degree 3 asks for 3 + 2 = 5; with degrees 3 and 7 built it gets 7 (no new
     element kinds), with 3 and 6 built 6, with none above 5 built 5; never above MAX_DEGREE (9 built: 5)."""
-    from ocp_constraints.ocp.mesh_refinement import refine, reused_degree
+    from ocp_constraints.ocp.mesh_companions import reused_degree
+    from ocp_constraints.ocp.mesh_refinement import refine
 
     scheme = Radau(mesh=(0.0, 0.5, 1.0), degrees=(3, 3))
     for built, degree in (({3, 7}, 7), ({3, 6, 7}, 6), ({3, 4}, 5), (set(), 5), ({3, 9}, 5)):
         new, _ = refine(scheme, np.array([16.0, 0.5]), built=built)
         assert list(new.points_per_interval - 1) == [degree, 3] and list(new.mesh_fractions) == [0.0, 0.5, 1.0]
         assert reused_degree(5, built) == degree
+
+
+def test_a_pilot_sized_from_the_first_solution_is_the_final_mesh_at_1e_8_and_its_estimate_brackets_the_truth(pontryagin):
+    """Swing-up at 1e-8 (joint coordinates): the first solution's Legendre coefficients fall on every interval,
+    so the pilot is cut as finely as they predict a halving will not do (pilot_pieces: 3-4 pieces here, not
+    2), the next mesh asks for no more than it (as_fine), and it is the final mesh: 3 solves (the first mesh,
+    the pilot, its companion). Against the Pontryagin extremal the true error meets 1e-8 and lies between a
+    tenth of the estimate and the estimate."""
+    ref = pontryagin
+    sol = build_task("pendulum", "swing_up")[1].solve(tolerance=1e-8)
+    mr = sol.mesh_refinement
+    assert mr["met"] and [h["solves"] for h in mr["history"]] == [2, 1]
+    assert mr["history"][1].get("solved_as_companion") and sol.transcription.scheme.intervals > 20
+
+    def truth(t):
+        psi, w = ref.states(t)
+        h, z = ref.L / 2, 0 * t
+        lam = ref.multipliers(t)
+        return {"states": np.array([h * np.sin(psi), -h * np.cos(psi), z, psi, z, z,
+                                    h * w * np.cos(psi), h * w * np.sin(psi), z, z, z, w]),
+                "multipliers": np.array([lam[k] for k in names(sol)["multipliers"]]), "inputs": ref.torque(t)[None, :]}
+
+    true = _errors(sol, truth)
+    for q in ("states", "multipliers"):
+        assert true[q] <= 1e-8
+        assert mr["estimate"][q] / 10 <= true[q] <= mr["estimate"][q], q
+
+
+def test_the_pilot_cuts_each_interval_as_asked_and_as_fine_compares_lengths_and_degrees_not_mesh_points():
+    """pilot_of with pieces [2, 3] on (0, 0.5, 1): points 0.25 and 0.5 + 0.5/3, 0.5 + 1/3, all at MAX_DEGREE;
+    as_fine by hand: a mesh cut in 4 asks for at least what one cut in 3 does (its points are not the
+    other's, so covered() says no), one cut in 2 does not, nor one of a lower degree."""
+    from ocp_constraints.ocp.mesh_companions import MAX_DEGREE, as_fine, covered, pilot_of
+
+    pilot = pilot_of(Radau(mesh=(0.0, 0.5, 1.0), degrees=(3, 3)), [2, 3])
+    assert np.allclose(pilot.mesh_fractions, [0.0, 0.25, 0.5, 0.5 + 0.5 / 3, 0.5 + 1 / 3, 1.0])
+    assert list(pilot.points_per_interval - 1) == [MAX_DEGREE] * 5
+    thirds = Radau(mesh=tuple(np.linspace(0.0, 1.0, 4)), degrees=(7, 7, 7))
+    quarters = Radau(mesh=tuple(np.linspace(0.0, 1.0, 5)), degrees=(7,) * 4)
+    assert as_fine(thirds, quarters) and not covered(thirds, quarters)
+    assert not as_fine(thirds, Radau(mesh=(0.0, 0.5, 1.0), degrees=(9, 9)))
+    assert not as_fine(thirds, Radau(mesh=tuple(np.linspace(0.0, 1.0, 5)), degrees=(7, 6, 7, 7)))
+    assert as_fine(thirds, thirds)

@@ -259,3 +259,42 @@ def legendre_decay(solution) -> tuple[np.ndarray, np.ndarray]:
             worse = ratio > out[ks]
             out[ks[worse]], tail[ks[worse]] = ratio[worse], last[worse]
     return out, tail
+
+
+def predicted_error(solution) -> tuple[np.ndarray, np.ndarray]:
+    """Per interval, the error of the solution's polynomials that their own Legendre coefficients predict,
+    before any companion is solved: the next coefficient, extrapolated geometrically from the last two,
+    ``|a_d| min(1, |a_d| / |a_{d-1}|)`` (maxima over the components; states absolute through the interval's
+    points, multipliers relative to their largest value through its collocation points), the larger of the
+    two; and whether both fall there (``|a_d| < |a_{d-1}|``). The geometric fall is what hp theory assumes
+    of a smooth, resolved solution (Patterson and Rao 2014, Liu, Hager and Rao 2015); where the
+    coefficients do not fall (a coarse mesh that does not resolve the solution: the suite's acrobot and
+    cart double pendulum on 10 intervals of degree 3, rates up to 1.6-1.9), the prediction means nothing.
+    Used only to size the pilot
+    (:func:`.mesh_companions.pilot_of`), never as the estimate: measured against the pilot's estimate on the
+    first mesh (Radau 3, 10 intervals), this prediction is 0.1-0.4x of it on the swing-up and 1-400x below
+    it on the suite's unresolved coarse meshes (``python /work/main/scripts/mesh_refinement_costs.py``'s
+    second part reads the last coefficient alone)."""
+    from numpy.polynomial import legendre
+
+    tr = solution.transcription
+    labels = names(solution)
+    mesh = tr.scheme.mesh_fractions
+    out, falls = np.zeros(tr.scheme.intervals), np.ones(tr.scheme.intervals, bool)
+    for q in ("states", "multipliers"):
+        values = np.array([solution.sample(n) for n in labels[q]]).reshape(len(labels[q]), -1)
+        scale = 1.0 if q == "states" else (float(np.abs(values[:, 1:]).max()) if values.size else 0.0)
+        if not values.size or scale == 0.0:
+            continue
+        first = 0 if q == "states" else 1       # multipliers: the interval's own (collocation) points
+        for k in range(tr.scheme.intervals):
+            idx = np.asarray(tr.interval_points(k))[first:]
+            if len(idx) < 3:
+                continue
+            x = 2.0 * (tr.fractions[idx] - mesh[k]) / (mesh[k + 1] - mesh[k]) - 1.0
+            a = np.abs(np.linalg.solve(legendre.legvander(x, len(idx) - 1), values[:, idx].T)).max(axis=1) / scale
+            rate = a[-1] / a[-2] if a[-2] > 0 else np.inf
+            falls[k] &= rate < 1.0
+            out[k] = max(out[k], a[-1] * min(rate, 1.0))
+    return out, falls
+

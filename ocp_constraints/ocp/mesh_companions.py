@@ -4,12 +4,16 @@ covers another or is finer everywhere (then its solution may judge the other's: 
 uniform step taken where a comparison does not resolve the solution. Used by :mod:`.mesh_refinement`."""
 from __future__ import annotations
 
+import math
+
 import numpy as np
 
+from .error_estimate import predicted_error
 from .schemes import Radau
 
 MAX_DEGREE = 7          # the companion then reaches Radau's highest degree, 9
 COMPANION_EXTRA = 2
+MAX_PIECES = 8          # an interval is split into at most this many in one refinement
 
 
 def _degrees(scheme: Radau) -> np.ndarray:
@@ -22,15 +26,38 @@ def companion_of(scheme: Radau) -> Radau:
                  degrees=tuple(int(min(d + COMPANION_EXTRA, 9)) for d in _degrees(scheme)))
 
 
-def pilot_of(scheme: Radau) -> Radau:
+def pilot_of(scheme: Radau, pieces=None) -> Radau:
     """The first mesh's companion: every interval halved, at :data:`MAX_DEGREE`, the finest mesh one
     refinement of it can ask for without splitting further. Where the next mesh asks for no more
     (:func:`covered`), the pilot's solution *is* the next solution, and a refinement needs three
     solves, not four (the solves' fixed costs, transcription and IPOPT setup, are most of a solve
-    at these sizes: swing-up in joint coordinates, 54-62% of the refinement's CPU in transcriptions)."""
+    at these sizes: swing-up in joint coordinates, 54-62% of the refinement's CPU in transcriptions).
+
+    ``pieces[k]`` (default 2): interval ``k`` cut into that many equal pieces (:func:`.error_estimate.pieces_needed`:
+    where the first solution's own Legendre coefficients predict that halving at :data:`MAX_DEGREE` will not
+    meet the tolerance, the pilot is cut as the next mesh would be, so that it can be the next mesh)."""
     mesh = scheme.mesh_fractions
-    halves = np.sort(np.concatenate([mesh, (mesh[:-1] + mesh[1:]) / 2]))
-    return Radau(mesh=tuple(float(m) for m in halves), degrees=(MAX_DEGREE,) * (2 * scheme.intervals))
+    n = np.full(scheme.intervals, 2) if pieces is None else np.maximum(2, np.asarray(pieces, int))
+    points = [mesh[0]]
+    for a, b, m in zip(mesh[:-1], mesh[1:], n):
+        points += ([(a + b) / 2] if m == 2 else [a + (b - a) * j / m for j in range(1, m)]) + [b]
+    points[-1] = 1.0
+    return Radau(mesh=tuple(float(m) for m in points), degrees=(MAX_DEGREE,) * int(n.sum()))
+
+
+def as_fine(scheme: Radau, by: Radau) -> bool:
+    """Whether every interval of ``by`` is no longer than, and of no lower degree than, each interval of
+    ``scheme`` it overlaps: ``by`` asks for at least what ``scheme`` does everywhere, its mesh points
+    not necessarily among ``scheme``'s (``by`` cut in 4 where ``scheme`` is cut in 3)."""
+    mesh, theirs = scheme.mesh_fractions, by.mesh_fractions
+    tiny = 1e-12
+    for lo, hi, d in zip(theirs[:-1], theirs[1:], _degrees(by)):
+        k0 = max(int(np.searchsorted(mesh, lo + tiny, side="right")) - 1, 0)
+        k1 = min(int(np.searchsorted(mesh, hi - tiny, side="left")), scheme.intervals)
+        ks = np.arange(k0, max(k1, k0 + 1))
+        if np.any(hi - lo > np.diff(mesh)[ks] * (1 + 1e-9)) or np.any(d < _degrees(scheme)[ks]):
+            return False
+    return True
 
 
 def covered(scheme: Radau, by: Radau) -> bool:
@@ -87,3 +114,40 @@ def finer_at_hand(scheme: Radau, at_hand: list):
     """The finest solution at hand that may judge a solution on ``scheme`` (:func:`finer`), or None."""
     fit = [s for s in at_hand if finer(scheme, s.transcription.scheme)]
     return max(fit, key=lambda s: s.transcription.scheme.point_count) if fit else None
+
+
+def split_pieces(ratio: float, degree: int) -> int:
+    """Pieces at :data:`MAX_DEGREE` that an interval of ``degree`` whose error is ``ratio`` times the
+    tolerance needs (:func:`.mesh_refinement.refine`): the ratio left at :data:`MAX_DEGREE`, ``ratio / 4^(MAX_DEGREE - degree)``,
+    divided by about ``n^MAX_DEGREE``; 2 to :data:`MAX_PIECES`."""
+    left = ratio / 4.0 ** (MAX_DEGREE - degree)
+    return int(min(MAX_PIECES, max(2, math.ceil(left ** (1.0 / MAX_DEGREE)))))
+
+
+def pilot_pieces(sol, tol: float) -> np.ndarray:
+    """How finely the pilot cuts each interval of the first mesh: in two, or, where the first solution's
+    own Legendre coefficients predict an error (:func:`.error_estimate.predicted_error`) that a
+    halving at :data:`MAX_DEGREE` would not bring below ``tol`` (:func:`split_pieces` asks for more), in as
+    many pieces as that asks for. Then the next mesh, from the pilot's estimate, asks for no more than the
+    pilot has (:func:`.mesh_companions.as_fine`) and the pilot is the next solution: at a tight tolerance
+    three solves instead of four (swing-up at 1e-8: the first mesh, a pilot of 30 intervals, its
+    companion; was the first mesh, a pilot of 20, 33 intervals, their companion). A prediction too high
+    costs a larger pilot; too low, the fourth solve as before. The estimate is never the prediction. Where
+    the coefficients do not fall on every interval (the first mesh does not resolve the solution), every
+    interval is halved as before: the next mesh then follows from the pilot's own, not from this."""
+    degrees = _degrees(sol.transcription.scheme)
+    predicted, falls = predicted_error(sol)
+    if not falls.all():     # not resolved where they do not fall: the comparison with the pilot will say how
+        return np.full(len(degrees), 2)
+    return np.array([split_pieces(r, int(d)) for r, d in zip(predicted / tol, degrees)])
+
+
+def reused_degree(needed: int, built) -> int:
+    """``needed``, or the smallest degree above it up to :data:`MAX_DEGREE` whose element kinds are ``built``.
+
+    Why: a degree new to the refinement costs its element kinds (the defects of an interval of that
+    degree, and their symbolic Jacobian and Hessian, :mod:`.transcription_elements`, :mod:`.nlp_assembly`):
+    5-17 ms of CPU each on the swing-up in joint coordinates (degrees 4-9), more on larger models; a degree
+    or two more on the intervals that are raised costs a few points, and errs on the accurate side (swing-up
+    at 1e-4: degrees 5-7 on 10 intervals, 63 points, two new kinds; all 7: 71 points, none)."""
+    return min([d for d in built if needed <= d <= MAX_DEGREE], default=needed)

@@ -6,10 +6,12 @@
 2. judge it against a *companion*: a solution at hand that is finer everywhere, if there is one
    (:func:`.mesh_companions.finer`: each interval halved at a degree at least its own, or kept at two
    degrees more; no solve), else the same mesh with every degree raised by two, solved warm from 1
-   (on the first mesh: the *pilot*, every interval halved at :data:`MAX_DEGREE`, :func:`pilot_of`);
+   (on the first mesh: the *pilot*, every interval halved at :data:`MAX_DEGREE`, or cut finer where the
+   first solution's own Legendre coefficients predict that a halving will not do, :func:`pilot_of`,
+   :func:`.mesh_companions.pilot_pieces`);
    the estimate of each interval's error is :data:`.error_estimate.SAFETY` times their difference
    (:mod:`.error_estimate`). Where the next mesh asks for no more than the pilot has and the pilot is
-   not much larger (:func:`covered`, :data:`SNAP_POINTS`), the pilot is the next mesh and its
+   not much larger (:func:`.mesh_companions.as_fine`, :data:`SNAP_POINTS`), the pilot is the next mesh and its
    solution the next solution: one solve fewer;
 3. *switches*: where an input bound or a path constraint jumps between its bounds inside an interval
    (read from the NLP's solution, :mod:`.switch_detection`), the interval is split *at* the located
@@ -54,8 +56,8 @@ import numpy as np
 
 from ..errors import ModelError, OCPSolveError
 from .error_estimate import DECAY_LIMIT, UNRESOLVED_OBJECTIVE, UNRESOLVED_STATE, estimate_error, legendre_decay
-from .mesh_companions import (MAX_DEGREE, _degrees, _ends, companion_of, covered, finer,
-                              finer_at_hand, pilot_of, uniform_step)
+from .mesh_companions import (MAX_DEGREE, _degrees, _ends, as_fine, companion_of, finer, finer_at_hand,
+                              pilot_of, pilot_pieces, reused_degree, split_pieces, uniform_step)
 from .schemes import Radau
 from .switch_detection import detect_switches, jump_windows, split_points, touched
 
@@ -66,7 +68,6 @@ MAX_REFINEMENTS = 10
 # the points (maximal coordinates, long horizons), the saved solve pays for ~1.8x; 1.5 keeps a margin,
 # and a non-smooth solution (a few short intervals at a switch) is not traded for a globally finer mesh.
 SNAP_POINTS = 1.5
-MAX_PIECES = 8          # an interval is split into at most this many in one refinement
 MIN_INTERVAL = 1e-6     # fraction of the horizon below which an interval is not split further
 ROUGH_MIN = 1e-3        # fraction of the horizon below which a rough interval is not halved (refine)
 GATED = ("states", "multipliers")
@@ -116,7 +117,7 @@ def refine(scheme: Radau, ratio: np.ndarray, parents: dict | None = None,
     neither a higher degree nor a split at a high degree helps much): it is split in two at :data:`MIN_DEGREE`. A smooth one gets the degree that
     the error's fall of about 4x per degree predicts, ``d + ceil(log(ratio) / log 4)``, if that is at
     most :data:`MAX_DEGREE`; else it is split at :data:`MAX_DEGREE` into the number of pieces that
-    the rest of the ratio needs (error ~ h^MAX_DEGREE), 2 to :data:`MAX_PIECES`.
+    the rest of the ratio needs (error ~ h^MAX_DEGREE), 2 to :data:`.mesh_companions.MAX_PIECES`.
 
     ``switches[k]``: fractions of the horizon where a bound or path constraint switches inside interval
     ``k`` (:func:`.switch_detection.split_points`). Such an interval is split *at* them, at its degree,
@@ -159,8 +160,7 @@ def refine(scheme: Radau, ratio: np.ndarray, parents: dict | None = None,
             # n^MAX_DEGREE (the multipliers' order; the states' is one more): as many pieces as that
             # predicts, so that a steep tolerance is met in one more refinement, not several halvings
             # (swing-up at 1e-8: 3 refinements with halving, 2 with this).
-            left = r / 4.0 ** (MAX_DEGREE - d)
-            n = int(min(MAX_PIECES, max(2, math.ceil(left ** (1.0 / MAX_DEGREE)))))
+            n = split_pieces(r, d)
             pieces, degree = [a + (b - a) * j / n for j in range(1, n)] + [b], MAX_DEGREE
         for lo, hi in zip([a, *pieces[:-1]], pieces):
             born[_ends(lo, hi)] = r
@@ -168,17 +168,6 @@ def refine(scheme: Radau, ratio: np.ndarray, parents: dict | None = None,
         new_degrees.extend([degree] * len(pieces))
     new_mesh[-1] = 1.0
     return Radau(mesh=tuple(float(m) for m in new_mesh), degrees=tuple(new_degrees)), born
-
-
-def reused_degree(needed: int, built) -> int:
-    """``needed``, or the smallest degree above it up to :data:`MAX_DEGREE` whose element kinds are ``built``.
-
-    Why: a degree new to the refinement costs its element kinds (the defects of an interval of that
-    degree, and their symbolic Jacobian and Hessian, :mod:`.transcription_elements`, :mod:`.nlp_assembly`):
-    5-17 ms of CPU each on the swing-up in joint coordinates (degrees 4-9), more on larger models; a degree
-    or two more on the intervals that are raised costs a few points, and errs on the accurate side (swing-up
-    at 1e-4: degrees 5-7 on 10 intervals, 63 points, two new kinds; all 7: 71 points, none)."""
-    return min([d for d in built if needed <= d <= MAX_DEGREE], default=needed)
 
 
 def _build(problem, scheme: Radau, first):
@@ -313,7 +302,8 @@ def solve_to_tolerance(problem, tolerance, method=None, ipopt_options: dict | No
                 entry["judged_against"] = {"intervals": judge.transcription.scheme.intervals,
                                            "points": judge.transcription.scheme.point_count}
             else:
-                companion, t_comp, c_comp = _timed_solve(problem, pilot_of(scheme) if r == 0 else companion_of(scheme),
+                companion, t_comp, c_comp = _timed_solve(problem, pilot_of(scheme, pilot_pieces(sol, tol)) if r == 0
+                                                         else companion_of(scheme),
                                                          {**WARM_IPOPT, **options}, sol, progress, first)
                 at_hand.append(companion)
             del at_hand[:-AT_HAND]
@@ -385,7 +375,7 @@ def solve_to_tolerance(problem, tolerance, method=None, ipopt_options: dict | No
             break
         solved = None
         pilot = companion.transcription.scheme
-        if (r == 0 and covered(new, pilot) and not finer(new, pilot)
+        if (r == 0 and as_fine(new, pilot) and not finer(new, pilot)
                 and pilot.point_count <= SNAP_POINTS * new.point_count):
             # The pilot is at least as fine as the next mesh everywhere and not much larger: take it and
             # its solution, each of its intervals born of the interval it halves. Where the pilot is *finer*
