@@ -271,10 +271,11 @@ def predicted_error(solution) -> tuple[np.ndarray, np.ndarray]:
     coefficients do not fall (a coarse mesh that does not resolve the solution: the suite's acrobot and
     cart double pendulum on 10 intervals of degree 3, rates up to 1.6-1.9), the prediction means nothing.
     Used only to size the pilot
-    (:func:`.mesh_companions.pilot_of`), never as the estimate: measured against the pilot's estimate on the
-    first mesh (Radau 3, 10 intervals), this prediction is 0.1-0.4x of it on the swing-up and 1-400x below
-    it on the suite's unresolved coarse meshes (``python /work/main/scripts/mesh_refinement_costs.py``'s
-    second part reads the last coefficient alone)."""
+    (:func:`.mesh_companions.pilot_pieces`), never as the estimate: on the first mesh (Radau 3, 10 intervals)
+    the pilot's estimate per interval is 0.08-0.38x the last coefficient alone on the swing-up, 1.1-460x on the
+    suite's acrobot, cart double pendulum and four-bar (``python scripts/mesh_refinement_costs.py`` reads the
+    same ratio on other meshes): a prediction, good to a factor that the pieces it asks for, about its
+    seventh root, mostly absorb."""
     from numpy.polynomial import legendre
 
     tr = solution.transcription
