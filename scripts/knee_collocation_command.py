@@ -6,7 +6,9 @@ Runs ``ocp-constraints knee $A --method M --out DIR`` (``$A``: the README's ngai
 as a separate process, as preregistration C17 times it: wall seconds from start to exit, CPU seconds (user +
 system, the command and its drawing process: ``resource.getrusage(RUSAGE_CHILDREN)``), the load average before
 each run, and the steps' wall seconds from its summary.json (inverse dynamics, build, solve, total of
-``run_knee``). ``--timeline``: one more run in this process with the time since the interpreter started at which
+``run_knee``). ``--before``: the same command with IPOPT's own values of the options that
+``knee_collocation.KKT_OPTIONS`` sets (the code before them), for a before/after pair in the same conditions.
+``--timeline``: one more run in this process with the time since the interpreter started at which
 each step begins and ends (imports, ``run_knee``'s steps, writing the results and figure), to find the fixed
 costs outside the solve.
 """
@@ -31,23 +33,35 @@ ARGS = ["--model", str(MODEL), "--motion", str(TRIAL / "IK" / "IK_ngait_og5.mat"
 START = time.perf_counter()
 
 
-def command(method: str, out: Path) -> list[str]:
+# IPOPT's own values of the options knee_collocation.KKT_OPTIONS sets: the command as it was before them
+IPOPT_DEFAULTS = {"ipopt.mumps_mem_percent": 1000, "ipopt.mumps_permuting_scaling": 7, "ipopt.mumps_pivot_order": 7,
+                  "ipopt.min_refinement_steps": 1}
+BEFORE = ("import os, sys; os.environ.setdefault('OPENBLAS_NUM_THREADS', '1'); "   # as cli_knee, before NumPy loads
+          "import ocp_constraints.biomech.knee_collocation as kc; kc.KKT_OPTIONS.clear(); "
+          f"kc.KKT_OPTIONS.update({IPOPT_DEFAULTS!r}); from ocp_constraints.cli.main import main; "
+          "sys.exit(main(sys.argv[1:]))")
+
+
+def command(method: str, out: Path, before: bool = False) -> list[str]:
+    """The knee command line; ``before``: the same through ``python -c`` with IPOPT's defaults for KKT_OPTIONS."""
+    if before:
+        return [sys.executable, "-c", BEFORE, "knee", *ARGS, "--method", method, "--out", str(out)]
     exe = Path(sys.executable).parent / "ocp-constraints"
     return [str(exe), "knee", *ARGS, "--method", method, "--out", str(out)]
 
 
-def timed_runs(method: str, runs: int) -> None:
+def timed_runs(method: str, runs: int, before: bool = False) -> None:
     rows = []
     for i in range(runs):
         with tempfile.TemporaryDirectory() as tmp:
             load = os.getloadavg()[0]
-            before = resource.getrusage(resource.RUSAGE_CHILDREN)
+            usage = resource.getrusage(resource.RUSAGE_CHILDREN)
             wall = time.perf_counter()
-            subprocess.run(command(method, Path(tmp) / "out"), check=True, stdout=subprocess.DEVNULL,
+            subprocess.run(command(method, Path(tmp) / "out", before), check=True, stdout=subprocess.DEVNULL,
                            stderr=subprocess.DEVNULL, env={**os.environ, "MPLBACKEND": "Agg"})
             wall = time.perf_counter() - wall
             after = resource.getrusage(resource.RUSAGE_CHILDREN)
-            user, system = after.ru_utime - before.ru_utime, after.ru_stime - before.ru_stime
+            user, system = after.ru_utime - usage.ru_utime, after.ru_stime - usage.ru_stime
             steps = json.loads((Path(tmp) / "out" / "summary.json").read_text())["wall_time_s"]
         rows.append((wall, user + system))
         print(f"run {i + 1}: {wall:.2f} s wall, {user:.2f} + {system:.2f} s CPU (user + sys), load before {load:.2f}; "
@@ -101,8 +115,10 @@ if __name__ == "__main__":
     ap.add_argument("--runs", type=int, default=3)
     ap.add_argument("--method", default="collocation")
     ap.add_argument("--timeline", action="store_true")
+    ap.add_argument("--before", action="store_true",
+                    help="the collocation with IPOPT's defaults instead of knee_collocation.KKT_OPTIONS (the code before)")
     a = ap.parse_args()
     if a.runs:
-        timed_runs(a.method, a.runs)
+        timed_runs(a.method, a.runs, a.before)
     if a.timeline:
         timeline(a.method)

@@ -30,7 +30,8 @@ doi:10.1007/s10439-016-1591-9, eqs. 1-2) is available with ``smoothing = b > 0``
 Time constants ``tau_act = 15 ms``, ``tau_deact = 60 ms`` (De Groote et al. 2016). On the
 JW gait cycle the tanh form did not converge within 1000 IPOPT iterations (its switch
 makes the defects strongly nonconvex), the Raasch form converges from the static solution
-(84 / 80 / 69 IPOPT iterations on ngait_og5 / bouncy7 / mtpgait3): hence the default.
+(91 / 82 / 71 IPOPT iterations on ngait_og5 / bouncy7 / mtpgait3 with the string-fitted muscle paths of
+0c7f208, 84 / 80 / 69 before them): hence the default.
 
 Transcription: first-order Radau IIA collocation (backward Euler) on the frames' grid,
 L-stable, so it stays well behaved when ``tau << h`` (the fast-activation limit below),
