@@ -149,9 +149,35 @@ def muscle_kinematics(gait, paths: MusclePaths) -> tuple[np.ndarray, np.ndarray]
     return L, np.einsum("nmc,nc->nm", Jl, qd)
 
 
+def reserve_weights_from_sigma(sigma: dict[str, float]) -> np.ndarray:
+    """Reserve weights (per (N m)^2, one per :data:`RESERVED` row) from the uncertainty ``sigma`` (N m) of the
+    inverse dynamics' ``Q`` on the rows named; the other rows keep :data:`RESERVE_WEIGHT`.
+
+    The effort ``sum a^2`` read as the negative log of the activations' prior and ``Q_c`` as a measurement with a
+    Gaussian error of standard deviation ``sigma_c`` (the balance of eqs. 35-41 holds up to that error, the reserve
+    ``rho_c``) make ``sum a^2 + sum_c rho_c^2 / (2 sigma_c^2)`` the negative log-posterior: ``w_c = 1/(2 sigma_c^2)``.
+    The uniform ``RESERVE_WEIGHT = 1`` is ``sigma = 0.71 N m`` (issue 15, candidate C18,
+    ``results/knee/preregistration.md``, sixth round).
+    """
+    w = np.full(len(RESERVED), RESERVE_WEIGHT)
+    for name, value in sigma.items():
+        if name not in RESERVED:
+            raise KneeError(f"reserve uncertainty for '{name}': no reserve on that coordinate "
+                            f"(use one of {', '.join(RESERVED)})")
+        s = float(value)
+        if not (np.isfinite(s) and s > 0.0):
+            raise KneeError(f"reserve uncertainty for '{name}' = {value!r}: a standard deviation must be a finite "
+                            f"number > 0 (N m)")
+        w[RESERVED.index(name)] = 1.0 / (2.0 * s * s)
+    return w
+
+
 def solve_static(t, Qc, R, A, F0, muscles_on: bool = True, contact_nonnegative: bool = True,
-                 reserve_weight: float = RESERVE_WEIGHT, passive=None) -> StaticResult:
+                 reserve_weight=RESERVE_WEIGHT, passive=None) -> StaticResult:
     """All frames in one NLP (IPOPT): see the module docstring. ``Qc`` in N m / N.
+
+    ``reserve_weight``: the cost of the reserves per (N m)^2, one number for all of them or one per
+    :data:`RESERVED` row (e.g. :func:`reserve_weights_from_sigma`).
 
     Muscle tension ``F = a F0 + passive``: ``F0`` (N) per muscle (ideal force generators,
     the model's max isometric force) or per frame and muscle (the Hill force at full
@@ -175,8 +201,12 @@ def solve_static(t, Qc, R, A, F0, muscles_on: bool = True, contact_nonnegative: 
     rhs = ((Qc - np.einsum("ncm,nm->nc", R, passive)) / LOAD_SCALE).ravel()
     # effort sum a^2 + w sum rho^2 as one weighted dot product over all frames (frame-major x): a mapped
     # per-frame Function gave the same optimum with 0.1 s more CPU to build (ngait_og5)
+    w_res = np.asarray(reserve_weight, float)
+    if w_res.ndim > 1 or w_res.size not in (1, nres) or not np.all(np.isfinite(w_res) & (w_res > 0)):
+        raise KneeError(f"reserve_weight {reserve_weight!r}: one finite weight > 0, or one per reserved coordinate "
+                        f"({', '.join(RESERVED)})")
     weights = np.zeros((nx, N))
-    weights[:nm], weights[nm + 5:] = 1.0, reserve_weight
+    weights[:nm], weights[nm + 5:] = 1.0, np.broadcast_to(w_res.reshape(-1, 1), (nres, 1))
     X = ca.MX.sym("X", nx * N)
     nlp = {"x": X, "f": ca.dot(ca.DM(weights.ravel(order="F")), X * X), "g": ca.mtimes(B, X) - ca.DM(rhs)}
     # a convex QP (quadratic effort, linear balances, bounds): Mehrotra's predictor-corrector, which IPOPT
