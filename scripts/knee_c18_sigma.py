@@ -62,6 +62,9 @@ def main() -> None:
     for item in args.sigma:
         name, _, value = item.partition("=")
         sigma[name.strip()] = float(value)
+    missing = [c for c in HIP if c not in sigma]
+    if missing:     # the preregistered rule weights every hip direction by its own uncertainty, not some of them
+        ap.error(f"no --sigma for {', '.join(missing)}: C18 needs all three hip directions")
     w = reserve_weights_from_sigma(sigma)
     clock, cpu = time.perf_counter(), time.process_time()
     lines = ["| trial | model | medial RMSE / R^2 / peak error (BW) | lateral | total | peak abs(rho)/sigma "
@@ -80,8 +83,8 @@ def main() -> None:
                 rule["solves"] &= bool(res.success)
                 rule["hip within 2 sigma"] &= all(v <= 2.0 for v in ratio if np.isfinite(v))
                 rule["others within 10 N m"] &= bool(np.all(others <= 10.0))
-            lines.append(f"| {trial} | {name} | {cells(r['comparison'])} | "
-                         + " / ".join(f"{v:.2f}" for v in ratio) + " | " + " / ".join(f"{v:.1f}" for v in others) + " |")
+            lines.append(f"| {trial} | {name} | {cells(r['comparison'])} | " + " / ".join(f"{v:.2f}" for v in ratio)
+                         + " | " + " / ".join(f"{v:.1f}" for v in others) + " |")
             print(lines[-1], flush=True)
     text = ("# C18: hip reserves weighted by the inverse dynamics' uncertainty\n\n`python scripts/knee_c18_sigma.py "
             + " ".join(f"--sigma {k}={v:g}" for k, v in sigma.items()) + " ...`; static optimisation, default model "
