@@ -69,24 +69,16 @@ from dataclasses import dataclass
 import casadi as ca
 import numpy as np
 
-from .knee_static import LOAD_SCALE, RESERVE_WEIGHT, RESERVED, StaticResult, _balance_residual, _block_diagonal
+from .knee_static import (KKT_OPTIONS, LOAD_SCALE, RESERVE_WEIGHT, RESERVED, StaticResult, _balance_residual,
+                          _block_diagonal)
 from ..errors import KneeError
 from ..output.signals import call_interruptibly
 
 TAU_ACT = 0.015        # s, De Groote et al. 2016
 TAU_DEACT = 0.060      # s, De Groote et al. 2016
 SMOOTHING = 0.0        # 0: Raasch et al. 1997 form; b > 0: De Groote et al. 2016 tanh(b (e - a)) (Moco: b = 10)
-# How IPOPT's MUMPS factorizes the KKT matrix (about 90 % of the solve; 160 factorizations on ngait_og5, about two
-# per iteration: the nonconvex defects need inertia corrections). None of these changes a step beyond rounding
-# (the same iterates, objective to 1e-13, loads to 1e-9 BW on ngait_og5, bouncy7, mtpgait3):
-# - mumps_mem_percent 100: workspace 2x MUMPS's estimate, not 11x (IPOPT's 1000): the 88 MB it allocated, and the
-#   kernel zeroed, per factorization made 0.7 s of system time; IPOPT doubles it and refactors if MUMPS needs more;
-# - mumps_permuting_scaling 0 with pivot_order 2 (AMF): no weighted-matching pairs constrain the ordering, which then
-#   needs 2.7e7 instead of 4.1e7 operations per factorization (MUMPS's estimate, largest front 205 instead of 229);
-# - min_refinement_steps 0: a refinement solve only when the residual asks for it (IPOPT's default does one always).
-# Measured by python scripts/knee_collocation_kkt.py (candidates, CPU and wall, same-optimum check).
-KKT_OPTIONS = {"ipopt.mumps_mem_percent": 100, "ipopt.mumps_permuting_scaling": 0, "ipopt.mumps_pivot_order": 2,
-               "ipopt.min_refinement_steps": 0}
+# KKT_OPTIONS (imported from .knee_static): how MUMPS factorizes the KKT matrix, about 90 % of this solve (160
+# factorizations on ngait_og5, about two per iteration: the nonconvex defects need inertia corrections).
 
 
 def activation_rate(e, a, tau_act: float = TAU_ACT, tau_deact: float = TAU_DEACT, b: float = SMOOTHING):

@@ -38,6 +38,19 @@ from .knee_muscles import PRIMARY, SECONDARY, MusclePaths
 RESERVED = ["hip_flexion", "hip_adduction", "hip_rotation", "knee_flexion", "ankle_angle", "subtalar_angle"]
 RESERVE_WEIGHT = 1.0       # cost of 1 N m of reserve = cost of one fully active muscle
 LOAD_SCALE = 1000.0        # N: unit of the contact multipliers and of the balance rows inside the NLP
+# How IPOPT's MUMPS factorizes the KKT matrix, here and in the collocation (:mod:`.knee_collocation`, most of
+# whose solve it is). None of these changes a step beyond rounding (the same iterates: static loads to 5e-15 BW,
+# collocation objective to 2e-16 and loads to 1.5e-15 BW, on ngait_og5, bouncy7, mtpgait3):
+# - mumps_mem_percent 100: workspace 2x MUMPS's estimate, not 11x (IPOPT's 1000): the 88 MB the collocation
+#   allocated, and the kernel zeroed, per factorization made 0.7 s of system time; IPOPT doubles it and refactors
+#   if MUMPS needs more;
+# - mumps_permuting_scaling 0 with pivot_order 2 (AMF): no weighted-matching pairs constrain the ordering, which
+#   then needs 2.7e7 instead of 4.1e7 operations per collocation factorization (MUMPS's estimate);
+# - min_refinement_steps 0: a refinement solve only when the residual asks for it (IPOPT's default: always one).
+# Collocation solve 6.7 -> 4.3 s CPU, static 0.24 -> 0.16 s (ngait_og5, loaded machine):
+# python scripts/knee_collocation_kkt.py
+KKT_OPTIONS = {"ipopt.mumps_mem_percent": 100, "ipopt.mumps_permuting_scaling": 0, "ipopt.mumps_pivot_order": 2,
+               "ipopt.min_refinement_steps": 0}
 
 
 def _balance_residual(Qc, R, A, force, lam, rho) -> float:
@@ -214,7 +227,8 @@ def solve_static(t, Qc, R, A, F0, muscles_on: bool = True, contact_nonnegative: 
     solver = ca.nlpsol("knee_so", "ipopt", nlp, {"ipopt.print_level": 0, "print_time": False, "ipopt.sb": "yes",
                                                   "ipopt.tol": 1e-8, "ipopt.hessian_constant": "yes",
                                                   "ipopt.jac_c_constant": "yes", "ipopt.jac_d_constant": "yes",
-                                                  "ipopt.mehrotra_algorithm": "yes", "ipopt.bound_relax_factor": 0.0})
+                                                  "ipopt.mehrotra_algorithm": "yes", "ipopt.bound_relax_factor": 0.0,
+                                                  **KKT_OPTIONS})
     built = time.perf_counter()
     lbx, ubx = np.full((nx, N), -np.inf), np.full((nx, N), np.inf)
     lbx[:nm], ubx[:nm] = 0.0, (1.0 if muscles_on else 0.0)
