@@ -55,12 +55,12 @@ def main(data: Path, out: Path) -> None:
     for trial in TRIALS:
         files = [data / k / f"{k}_{trial}.mat" for k in ("IK", "GRF", "KCF")]
         knee_hill.hill_forces = _hill_forces
-        lines.append(row(trial, "C13 (default)", run_knee(MODEL, *files)))
+        lines.append(row(trial, "C13 (default)", run_knee(MODEL, *files, method="static")))
         print(lines[-1], flush=True)
         knee_hill.hill_forces = active_only
         try:
             lines.append(row(trial, "C15 (C13 + active force-length-velocity capacity)",
-                             run_knee(MODEL, *files, muscle_model="hill")))
+                             run_knee(MODEL, *files, muscle_model="hill", method="static")))
         finally:
             knee_hill.hill_forces = _hill_forces
         print(lines[-1], flush=True)

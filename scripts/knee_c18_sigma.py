@@ -37,10 +37,10 @@ def run(folder: Path, trial: str, weights=None) -> dict:
     """The default ``knee`` run of a trial, its static problem solved with ``weights`` (None: the default)."""
     files = [folder / k / f"{k}_{trial}.mat" for k in ("IK", "GRF", "KCF")]
     if weights is None:
-        return kp.run_knee(MODEL, *files)
+        return kp.run_knee(MODEL, *files, method="static")
     kp.solve_static = partial(solve_static, reserve_weight=weights)
     try:
-        return kp.run_knee(MODEL, *files)
+        return kp.run_knee(MODEL, *files, method="static")
     finally:
         kp.solve_static = solve_static
 

@@ -274,8 +274,9 @@ def contact_points_on_mesh(out_dir: Path) -> dict:
 
 
 def plot_before_after(out_dir: Path) -> Path:
-    """``before_after.png``: medial, lateral, total of ``<out>/before/loads.csv`` (issue 14's model) and
-    ``<out>/loads.csv`` (the default: passive hip, knee and ankle moments) against the measured loads."""
+    """``before_after.png``: medial, lateral, total of ``<out>/before/loads.csv`` (issue 14's model, C0, static),
+    ``<out>/static/loads.csv`` (C13, static) and ``<out>/loads.csv`` (the default: C13 with activation dynamics)
+    against the measured loads."""
     import csv
 
     import matplotlib
@@ -289,10 +290,11 @@ def plot_before_after(out_dir: Path) -> Path:
                 *(np.array([float(r[c]) for r in rows]) for c in ("N_medial", "N_lateral")))
 
     tm, mm, ml = read_measured(TRIAL["KCF"])
-    runs = {"before (no passive hip moment)": load(out_dir / "before"), "after (passive hip, knee and ankle moments)": load(out_dir)}
+    runs = {"before (C0, static)": load(out_dir / "before"), "C13, static": load(out_dir / "static"),
+            "C13 with activation dynamics (default)": load(out_dir)}
     fig, axes = plt.subplots(3, 1, figsize=(8, 9), sharex=True)
     for ax, k in zip(axes, ("medial", "lateral", "total")):
-        for (label, (t, m, l)), style in zip(runs.items(), (":", "-")):
+        for (label, (t, m, l)), style in zip(runs.items(), (":", "-.", "-")):
             y = {"medial": m, "lateral": l, "total": m + l}[k]
             ax.plot(t, y / BW, style, label=label)
         keep = (tm >= t[0]) & (tm <= t[-1])
@@ -300,7 +302,7 @@ def plot_before_after(out_dir: Path) -> Path:
         ax.set(ylabel=f"{k} [BW]")
         ax.grid(alpha=0.3)
         ax.legend(fontsize=8)
-    axes[0].set(title="ngait_og5: knee contact loads, static optimisation")
+    axes[0].set(title="ngait_og5: knee contact loads")
     axes[-1].set(xlabel="t [s]")
     path = out_dir / "before_after.png"
     fig.savefig(path, dpi=100)

@@ -158,7 +158,7 @@ def main() -> None:
     args = ap.parse_args()
     clock, cpu = time.perf_counter(), time.process_time()
     run = run_knee(MODEL, TRIAL["IK"], TRIAL["GRF"], TRIAL["KCF"], passive_hip=args.passive,
-                   quadriceps=args.quadriceps)
+                   quadriceps=args.quadriceps, method="static")
     d = decompose(run)
     bw = run["bw"]
     assert np.abs(d["residual_add"]).max() < 1e-3, d["residual_add"]       # the parts add up to Q

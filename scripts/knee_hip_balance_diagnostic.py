@@ -48,7 +48,7 @@ def trial_inputs(folder: Path, trial: str) -> dict:
 
     kp.solve_static = grab
     try:
-        run = kp.run_knee(MODEL, *[folder / k / f"{k}_{trial}.mat" for k in ("IK", "GRF", "KCF")])
+        run = kp.run_knee(MODEL, *[folder / k / f"{k}_{trial}.mat" for k in ("IK", "GRF", "KCF")], method="static")
     finally:
         kp.solve_static = orig
     return {**cap, "run": run}

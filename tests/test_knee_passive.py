@@ -129,7 +129,7 @@ def test_hill_fibres_passive_tension_is_counted_once_within_the_published_passiv
     from ocp_constraints.biomech.knee_static import RESERVED, frame_data
 
     D = J / "reducepoly_subject_GC"
-    run = run_knee(JW_MODEL, D / "IK" / "IK_ngait_og5.mat", D / "GRF" / "GRF_ngait_og5.mat", muscle_model="hill")
+    run = run_knee(JW_MODEL, D / "IK" / "IK_ngait_og5.mat", D / "GRF" / "GRF_ngait_og5.mat", muscle_model="hill", method="static")
     g, r = run["gait"], run["result"]
     Qc, R, A = frame_data(g, MusclePaths(), contact_matrix_function())
     names, P = g.coordinate_names, np.degrees(g.states["p"])

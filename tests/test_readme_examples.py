@@ -28,14 +28,10 @@ README = REPO / "README.md"
 FENCE = re.compile(r"^(\s*)```(\w*)\s*$")
 #: command prefix -> why it is not run here (each takes minutes; measured on this 2-core machine)
 SLOW = {
-    "ocp-constraints batch": "a batch of many runs (the README's knee sensitivity batch: 15 knee runs, 86 s on one worker); "
+    "ocp-constraints batch": "a batch of many runs (the README's knee sensitivity batch: 15 knee runs, 97 s of CPU); "
                              "the batch command itself is tested in test_batch.py",
     "ocp-constraints bench --readme": "the full benchmark (about 6 min); tested in test_bench_report.py",
     "ocp-constraints bench --quick": "41 s of CPU, 2 min 51 s of wall time under load; tested in test_bench_report.py",
-    "ocp-constraints knee $A --method collocation": "the knee's collocation over the whole 120 Hz cycle: about 7 s "
-                                                   "of CPU (5 s in IPOPT), a long run for a test; the same command "
-                                                   "on the cycle at 30 Hz is test_knee_collocation.py::"
-                                                   "test_cli_collocation_writes_summary",
 }
 
 

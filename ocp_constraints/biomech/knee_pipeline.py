@@ -14,7 +14,7 @@ import time
 import numpy as np
 
 from ..errors import OcpConstraintsError
-from .knee_options import METHOD_TEXT, MUSCLE_MODELS, PASSIVE_DEFAULT, QUADRICEPS, QUADRICEPS_DEFAULT
+from .knee_options import METHOD_DEFAULT, METHOD_TEXT, METHODS, MUSCLE_MODELS, PASSIVE_DEFAULT, QUADRICEPS, QUADRICEPS_DEFAULT
 from .knee_model import contact_matrix_function
 from .knee_static import frame_data, solve_static
 from ..errors import KneeError
@@ -103,9 +103,6 @@ def compare(t, predicted: dict, measured, bw: float) -> dict:
 
 
 
-METHODS = ("static", "collocation")
-
-
 class _Phases:
     """Wall and CPU time (s) of the steps of a run, in order: ``phase(name)`` closes the step ``name``."""
 
@@ -120,13 +117,14 @@ class _Phases:
 
 
 def run_knee(model, motion, grf, measured=None, muscles_on: bool = True, muscle_model: str = "ideal",
-             method: str = "static", cutoff: float | None = 6.0, implant_meshes=None, build_model_data: bool = True,
+             method: str = METHOD_DEFAULT, cutoff: float | None = 6.0, implant_meshes=None, build_model_data: bool = True,
              passive_hip: str = PASSIVE_DEFAULT, parameters: dict | None = None,
              quadriceps: str = QUADRICEPS_DEFAULT):
     """Gait cycle -> inverse dynamics -> static optimisation or collocation (-> comparison). Returns a dict.
 
-    ``method``: ``"static"`` (per-frame static optimisation, :mod:`.knee_static`) or
-    ``"collocation"`` (the whole cycle with activation dynamics, :mod:`.knee_collocation`).
+    ``method``: ``"collocation"`` (the default since rule C17: the whole cycle with activation dynamics,
+    :mod:`.knee_collocation`) or ``"static"`` (per-frame static optimisation, :mod:`.knee_static`, its
+    fast-activation limit).
 
     ``muscle_model``: ``"ideal"`` (``F = a F0``, the default) or ``"hill"`` (De Groote et
     al. 2016 force-length-velocity curves, rigid tendon, :mod:`.knee_hill`; experimental: with

@@ -4,7 +4,7 @@ from __future__ import annotations
 import os
 import sys
 
-from ..biomech.knee_options import METHOD_TEXT, METHODS, MUSCLE_MODELS, PASSIVE_DEFAULT, PASSIVE_HIP, QUADRICEPS, QUADRICEPS_DEFAULT
+from ..biomech.knee_options import METHOD_DEFAULT, METHOD_TEXT, METHODS, MUSCLE_MODELS, PASSIVE_DEFAULT, PASSIVE_HIP, QUADRICEPS, QUADRICEPS_DEFAULT
 from ..errors import OcpConstraintsError
 from .interruption import write_if_interrupted
 from .help import JW_MODEL, JW_TRIAL, HelpFormatter, example
@@ -27,8 +27,9 @@ def add_knee_parser(subparsers) -> None:
     k.add_argument("--motion", required=True, metavar="FILE", help="joint coordinates (IK .mot/.sto/.csv/.mat)")
     k.add_argument("--grf", required=True, metavar="FILE", help="ground reaction forces (.mot/.sto/.csv/.mat)")
     k.add_argument("--measured", default=None, metavar="FILE", help="measured contact forces (KCF .csv/.mat: PM, AM, AL, PL in lbf)")
-    k.add_argument("--method", choices=METHODS, default="static",
-                   help="static: per-frame static optimisation (default); collocation: activation dynamics over the cycle")
+    k.add_argument("--method", choices=METHODS, default=METHOD_DEFAULT,
+                   help="collocation: first-order activation dynamics over the whole cycle (default); static: "
+                        "per-frame static optimisation (the fast-activation limit, about 3x faster)")
     k.add_argument("--muscle-model", choices=MUSCLE_MODELS, default="ideal",
                    help="ideal: F = a F0 (default); hill: De Groote et al. 2016 force-length-velocity curves "
                         "with a rigid tendon (experimental: its passive quadriceps forces are unphysical in swing); "
