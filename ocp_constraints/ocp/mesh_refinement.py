@@ -36,7 +36,8 @@
 5. when the estimate meets the tolerance but an interval's inputs or multipliers are still not smooth
    (no bound located a switch there), that interval is halved and the refinement goes on
    (:func:`_nonsmooth_splits`); on the last refinement such intervals withdraw "met" and are named
-   (:func:`_flag_nonsmooth`): there the companion is no upper bound.
+   (:func:`_flag_nonsmooth`): there the companion is no upper bound;
+6. stop ("met" not claimed) when a refinement grew the points 1.5x or more but the estimate fell less (:mod:`.mesh_progress`).
 
 Every mesh is transcribed in the problem's own coordinates (joint coordinates under the default
 ``coordinates="auto"`` where they apply); the estimate reads states and multipliers by name.
@@ -58,6 +59,7 @@ from ..errors import ModelError, OCPSolveError
 from .error_estimate import DECAY_LIMIT, UNRESOLVED_OBJECTIVE, UNRESOLVED_STATE, estimate_error, legendre_decay
 from .mesh_companions import (MAX_DEGREE, _degrees, _ends, as_fine, companion_of, finer, finer_at_hand,
                               pilot_of, pilot_pieces, reused_degree, split_pieces, uniform_step)
+from .mesh_progress import stall_message
 from .schemes import Radau
 from .switch_detection import detect_switches, jump_windows, split_points, touched
 
@@ -362,6 +364,10 @@ def solve_to_tolerance(problem, tolerance, method=None, ipopt_options: dict | No
                 spots = ", ".join(f"{a:.4g}-{b:.4g}" for a, b in record["rough_intervals"][:4])
                 record["message"] += (f"; the estimate stays above it on intervals that refinement does not improve "
                                       f"(a switch: inputs and multipliers jump there), at fractions {spots} of the horizon")
+            _flag_nonsmooth(sol, tol, record, smoothness, windows)
+            break
+        if stalled := stall_message(history, tol, GATED):    # more points no longer pay (mesh_progress)
+            record["message"] = stalled
             _flag_nonsmooth(sol, tol, record, smoothness, windows)
             break
         # Rough intervals (see refine): where the solution switches; a jump of the inputs and
