@@ -97,7 +97,7 @@ def static_only(runs: int) -> None:
 
     pipeline.solve_static = capture
     a = knee_args()
-    pipeline.run_knee(a[1], a[3], a[5], a[7])
+    pipeline.run_knee(a[1], a[3], a[5], a[7], method="static")
     walls, cpus = [], []
     for i in range(runs):
         w, c = time.perf_counter(), time.process_time()
