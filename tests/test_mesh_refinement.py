@@ -18,6 +18,18 @@ def _errors(sol, truth) -> dict[str, float]:
                    sol.transcription.scheme.intervals, names(sol)).totals
 
 
+def _swing_up_truth(ref, sol):
+    """The Pontryagin extremal's states (the 12 maximal ones, from psi), multipliers and input at times ``t``."""
+    def truth(t):
+        psi, w = ref.states(t)
+        h, z = ref.L / 2, 0 * t
+        lam = ref.multipliers(t)
+        return {"states": np.array([h * np.sin(psi), -h * np.cos(psi), z, psi, z, z,
+                                    h * w * np.cos(psi), h * w * np.sin(psi), z, z, z, w]),
+                "multipliers": np.array([lam[k] for k in names(sol)["multipliers"]]), "inputs": ref.torque(t)[None, :]}
+    return truth
+
+
 @pytest.fixture(scope="module")
 def pontryagin():
     """The swing-up's Pontryagin extremal (shooting + DOP853), computed once for both coordinates."""
@@ -39,13 +51,7 @@ def test_estimate_brackets_the_true_error_of_the_swing_up(coordinates, nlp, pont
     sol = problem.solve(Radau(10, degree=3), tolerance=1e-4)
     assert sol.mesh_refinement["coordinates"] == nlp
 
-    def truth(t):
-        psi, w = ref.states(t)
-        h, z = ref.L / 2, 0 * t
-        lam = ref.multipliers(t)
-        return {"states": np.array([h * np.sin(psi), -h * np.cos(psi), z, psi, z, z,
-                                    h * w * np.cos(psi), h * w * np.sin(psi), z, z, z, w]),
-                "multipliers": np.array([lam[k] for k in names(sol)["multipliers"]]), "inputs": ref.torque(t)[None, :]}
+    truth = _swing_up_truth(ref, sol)
 
     mr = sol.mesh_refinement
     assert mr["met"] and len(mr["history"]) == mr["refinements"] + 1 >= 2
@@ -163,13 +169,7 @@ def test_a_pilot_sized_from_the_first_solution_is_the_final_mesh_at_1e_8_and_its
     assert mr["met"] and [h["solves"] for h in mr["history"]] == [2, 1]
     assert mr["history"][1].get("solved_as_companion") and sol.transcription.scheme.intervals > 20
 
-    def truth(t):
-        psi, w = ref.states(t)
-        h, z = ref.L / 2, 0 * t
-        lam = ref.multipliers(t)
-        return {"states": np.array([h * np.sin(psi), -h * np.cos(psi), z, psi, z, z,
-                                    h * w * np.cos(psi), h * w * np.sin(psi), z, z, z, w]),
-                "multipliers": np.array([lam[k] for k in names(sol)["multipliers"]]), "inputs": ref.torque(t)[None, :]}
+    truth = _swing_up_truth(ref, sol)
 
     true = _errors(sol, truth)
     for q in ("states", "multipliers"):
