@@ -154,3 +154,28 @@ def test_cli_collocation_writes_summary(tmp_path):
     rmse = np.sqrt(np.mean((tab["N_medial"] - np.interp(tab["t"], d[:, 0], medial)) ** 2)) / bw
     assert set(s["comparison"]) == {"medial", "lateral", "total"}
     assert s["comparison"]["medial"]["rmse_bw"] == pytest.approx(rmse, rel=1e-9)
+
+
+def test_a_failed_collocation_keeps_the_static_loads_and_says_so(tmp_path, monkeypatch, capsys):
+    """IPOPT stopped after 2 iterations (a real failure, Maximum_Iterations_Exceeded) on the collocation: the command
+    still writes loads, the static optimisation's (the collocation's starting point), and says so in summary.json
+    and on stderr; they are those of ``--method static`` on the same files."""
+    import ocp_constraints.biomech.knee_collocation as kc
+    from ocp_constraints.cli.main import main
+
+    real = kc.solve_collocation
+    monkeypatch.setattr(kc, "solve_collocation", lambda *a, **k: real(*a, **{**k, "max_iter": 2}))
+    motion = tmp_path / "ik_30hz.csv"
+    _every_kth_frame_csv(motion, 4)
+    args = ["knee", "--model", str(JW_MODEL), "--motion", str(motion), "--grf", str(GRF), "--no-plots"]
+    assert main(args + ["--out", str(tmp_path / "fell_back")]) == 0
+    s = json.loads((tmp_path / "fell_back" / "summary.json").read_text())
+    assert s["method"] == "static" and s["inputs"]["method"] == "collocation"
+    assert "Maximum_Iterations_Exceeded" in s["fallback"] and "static optimisation" in s["fallback"]
+    assert "warning: collocation failed" in capsys.readouterr().err
+    assert main(args + ["--method", "static", "--out", str(tmp_path / "static")]) == 0
+    fell = np.genfromtxt(tmp_path / "fell_back" / "loads.csv", delimiter=",", names=True, deletechars="")
+    static = np.genfromtxt(tmp_path / "static" / "loads.csv", delimiter=",", names=True, deletechars="")
+    assert fell.dtype.names == static.dtype.names
+    for name in ("N_medial", "N_lateral", "N_total"):
+        assert np.array_equal(fell[name], static[name])

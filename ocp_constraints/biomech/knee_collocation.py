@@ -106,6 +106,27 @@ class CollocationResult(StaticResult):
     iterations: int = -1
 
 
+def solve_collocation_or_static(t, Qc, R, A, F0, muscles_on: bool = True, passive=None, **options) -> StaticResult:
+    """:func:`solve_collocation`, or where IPOPT fails on it, the static optimisation with ``fallback`` saying why.
+
+    The collocation's NLP is not convex (module notes) and was adopted as the default on three trials; on
+    another trial IPOPT may fail where the static problem, a convex QP and the collocation's own starting
+    point (its limit of instant activation), solves. A failed run keeps what it had: these static loads,
+    reported as such (``fallback``; ``summary.json`` and the command line say so), never as the collocation's.
+    """
+    from .knee_static import solve_static
+
+    try:
+        return solve_collocation(t, Qc, R, A, F0, muscles_on=muscles_on, passive=passive, **options)
+    except KneeError as exc:
+        if not str(exc).startswith("collocation failed"):
+            raise
+        res = solve_static(t, Qc, R, A, F0, muscles_on=muscles_on, passive=passive)
+        res.fallback = (f"{exc}; the loads are the static optimisation's (activation dynamics left out: "
+                        f"their limit of instant activation)")
+        return res
+
+
 def ode_defects(t, a, e, tau_act: float = TAU_ACT, tau_deact: float = TAU_DEACT, b: float = SMOOTHING) -> np.ndarray:
     """Defects of the collocation equations (frames x muscles, activation units), numpy."""
     t = np.asarray(t, float)

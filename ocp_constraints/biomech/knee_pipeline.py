@@ -165,7 +165,7 @@ def run_knee(model, motion, grf, measured=None, muscles_on: bool = True, muscle_
     if method not in METHODS:
         raise KneeError(f"unknown method '{method}' (use one of {', '.join(METHODS)})")
     if method == "collocation":
-        from .knee_collocation import solve_collocation as solve
+        from .knee_collocation import solve_collocation_or_static as solve
     else:
         solve = solve_static
     from .gait import run_inverse_dynamics
@@ -276,9 +276,9 @@ def write_knee_results(run: dict, out, plots: bool = True, inputs: dict | None =
         write_sto(folder / "trajectory.sto", r.t, dict(zip(g.coordinate_names, g.states["p"].T)))
     from .knee_static import RESERVED
 
-    method = run.get("method", "static")
+    method = "static" if r.fallback else run.get("method", "static")      # the loads' method, not the one asked
     summary = {"task": f"knee contact loads, {METHOD_TEXT[method]}", "method": method, "success": r.success,
-               "status": r.status, "inputs": inputs or {},
+               "status": r.status, "fallback": r.fallback, "inputs": inputs or {},
                "gait_cycle_s": list(run["cycle"]), "frames": len(r.t), "body_weight_N": run["bw"],
                "solver": {"nlp": "all frames in one NLP, IPOPT (casadi.nlpsol)", "status": r.status,
                           "max_equation_residual": r.residual},

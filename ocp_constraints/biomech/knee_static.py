@@ -92,6 +92,7 @@ class StaticResult(Result):
     status: str
     timings: dict[str, float] = field(default_factory=dict)
     success: bool = True
+    fallback: str | None = None     # why these are the static loads where another method was asked (collocation)
 
     def sample_columns(self) -> dict[str, np.ndarray]:
         """``N_medial``, ``N_lateral``, ``N_total`` (N), ``<constraint>.lambda`` of the knee constraints,

@@ -102,9 +102,11 @@ def cli_knee(args) -> int:
             figures.close()
     for note in (summary.get("timing") or {}).get("notes", []):
         print(f"note: {note}", file=sys.stderr)
+    if summary.get("fallback"):
+        print(f"warning: {summary['fallback']}", file=sys.stderr)
     w = summary["wall_time_s"]
     print(f"knee: cycle {summary['gait_cycle_s'][0]:g}-{summary['gait_cycle_s'][1]:g} s, {summary['frames']} frames, "
-          f"{METHOD_TEXT[args.method]} {w['build'] + w['solve']:.2f} s; results in {args.out}")
+          f"{METHOD_TEXT[summary['method']]} {w['build'] + w['solve']:.2f} s; results in {args.out}")
     if summary["comparison"]:
         for k, v in summary["comparison"].items():
             print(f"  {k}: RMSE {v['rmse_bw']:.2f} BW, r {v['r']:.2f}, R^2 {v.get('r2', float('nan')):.2f}, "
