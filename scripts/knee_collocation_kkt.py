@@ -64,6 +64,11 @@ CHANGES = {
 }
 CANDIDATES = {name: {**IPOPT_DEFAULTS, **change} for name, change in CHANGES.items()}
 CANDIDATES["module default"] = dict(getattr(kc, "KKT_OPTIONS", {}))
+# IPOPT's inertia-free curvature test (Chiang & Zavala 2014, ``neg_curv_test_tol``; 1e-12..1e-11 recommended):
+# wrong inertia is ignored where the step has positive curvature, saving the re-factorization
+for tol in ("1e-12", "1e-11"):
+    CANDIDATES[f"module default, neg_curv_test_tol {tol}"] = {**CANDIDATES["module default"],
+                                                               "ipopt.neg_curv_test_tol": float(tol)}
 MUMPS_FIELDS = {"flops": r"RINFOG\(1\) Operations during elimination \(estim\)\s*=\s*([0-9.D+E-]+)",
                 "factor_entries": r"Number of entries in factors \(estim\.\)\s*=\s*(\d+)",
                 "max_front": r"Maximum frontal size\s+\(estimated\)\s*=\s*(\d+)",
