@@ -11,7 +11,8 @@ six suite problems (``bench/ocp_suite_run.PROBLEMS``, our side), the six newcome
 it) and the free-floating satellite of ``tests/test_ocp_quaternions.py``. Each run builds the problem
 from an empty model and solves it (``time.process_time`` and wall time of both); per run: IPOPT's
 status, iterations, objective; CPU and wall: medians over ``--runs``. Where "auto" picks maximal
-coordinates the two columns are one NLP and it is solved once.
+coordinates the two columns are one NLP and it is solved once. ``--jobs N`` runs the rows on an embedded
+Dask ``LocalCluster`` of N single-threaded worker processes (``client.map``/``gather``; the ``batch`` extra).
 
 A candidate (``--candidate``, see :data:`CANDIDATES`) is a change of the IPOPT options or of the
 joint-coordinate start, run on the same table; each is compared row by row with ``default``.
@@ -26,7 +27,6 @@ import os
 import statistics
 import sys
 import time
-from concurrent.futures import ProcessPoolExecutor
 from pathlib import Path
 
 os.environ.setdefault("MPLBACKEND", "Agg")
@@ -257,6 +257,12 @@ def _task(args: tuple) -> dict:
     return out
 
 
+def _task_in_worker(args: tuple) -> dict:
+    """``_task`` in a Dask worker: this script loaded there by path (a worker has no ``__main__`` of ours),
+    so its patches (``_speeds_patch``) act on the worker's own imports."""
+    return _load(ROOT / "scripts" / "ocp_default_robustness.py", "ocp_default_robustness")._task(args)
+
+
 def _auto_is_maximal(name: str) -> bool:
     return PROBLEMS[name]().nlp_coordinates == "maximal"
 
@@ -275,8 +281,13 @@ def measure(names, meshes, candidates, runs, jobs) -> list[dict]:
                         tasks.append((n, m, c, cand, runs))
     rows = []
     if jobs > 1:
-        with ProcessPoolExecutor(jobs) as pool:
-            for row in pool.map(_task, tasks):
+        # Scale-out goes through Dask (as ocp_constraints.batch does): an embedded LocalCluster of ``jobs``
+        # single-threaded worker processes; rows come back in the tasks' order, as the serial loop gives them.
+        from distributed import Client, LocalCluster
+
+        with LocalCluster(n_workers=jobs, threads_per_worker=1, processes=True, dashboard_address=":0",
+                          host="127.0.0.1") as cluster, Client(cluster) as client:
+            for row in client.gather(client.map(_task_in_worker, tasks, pure=False)):
                 _echo(row)
                 rows.append(row)
     else:
@@ -355,7 +366,8 @@ def main() -> None:
     ap.add_argument("--only", nargs="*", default=None, help=f"problems (default: all): {', '.join(PROBLEMS)}")
     ap.add_argument("--meshes", nargs="*", default=["R3N20", "R7N5"], choices=list(MESHES))
     ap.add_argument("--candidate", nargs="*", default=["default"], choices=list(CANDIDATES))
-    ap.add_argument("--jobs", type=int, default=1, help="processes (CPU time is per process; wall is inflated)")
+    ap.add_argument("--jobs", type=int, default=1,
+                    help="Dask worker processes of an embedded LocalCluster (CPU time is per process; wall is inflated)")
     ap.add_argument("--json", type=Path, default=None, help="also write the rows as JSON (and read earlier ones)")
     ap.add_argument("--markdown", type=Path, default=None, help="write the tables to this file")
     ap.add_argument("--tables-only", action="store_true", help="run nothing: the tables of the rows in --json")
