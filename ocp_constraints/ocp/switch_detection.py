@@ -80,21 +80,26 @@ class Switch:
     effect: float = 0.0
 
 
-def bounded_quantities(solution) -> list[tuple[str, np.ndarray, float, float, bool]]:
-    """``(name, values at every point, lower, upper, states only)`` of every bound on an input, coordinate
-    or speed and of every path constraint of the user's problem (a joint-coordinate NLP's too)."""
+def bounded_quantities(solution) -> list[tuple[str, np.ndarray, float, float, bool, bool]]:
+    """``(name, values at every point, lower, upper, states only, continuous)`` of every bound on an input,
+    coordinate or speed and of every path constraint of the user's problem (a joint-coordinate NLP's too).
+    *Continuous*: a coordinate or speed, or a path constraint of the coordinates, speeds and time alone (a
+    joint's speed limit), which cannot jump: only inputs and multipliers can (:func:`locate`)."""
     tr = solution.transcription
     pr = getattr(tr, "user_problem", tr.problem)
     state_names = set(pr.model.coordinate_names + pr.model.speed_names)
-    out = [(name, np.asarray(solution.sample(name), float), float(lo), float(hi), name in state_names)
-           for name, (lo, hi) in pr.bounds.items()]
+    out = [(name, np.asarray(solution.sample(name), float), float(lo), float(hi), name in state_names,
+            name in state_names) for name, (lo, hi) in pr.bounds.items()]
     if pr.path_constraints:
         e, traj, t = pr.eqs, solution.trajectory, solution.t
         f = ca.Function("path", [e.q, e.u, e.inputs, pr.lam, e.t],
                         [ca.vertcat(*[c.expression for c in pr.path_constraints])]).map(len(t))
         g = np.asarray(f(np.asarray(traj.q).T, np.asarray(traj.u).T, np.asarray(traj.inputs).T,
                          np.asarray(traj.lam).T, t[None, :])).reshape(len(pr.path_constraints), len(t))
-        out += [(c.label, row, float(c.lower), float(c.upper), False) for c, row in zip(pr.path_constraints, g)]
+        jumping = ca.vertcat(e.inputs, pr.lam)
+        out += [(c.label, row, float(c.lower), float(c.upper), False,
+                 not (jumping.numel() and ca.depends_on(c.expression, jumping)))
+                for c, row in zip(pr.path_constraints, g)]
     return out
 
 
@@ -128,12 +133,18 @@ def _crossing(t: np.ndarray, v: np.ndarray, level: float, i: int, j: int) -> flo
 
 
 def locate(t: np.ndarray, v: np.ndarray, s: np.ndarray, lower: float, upper: float,
-           eps: float) -> list[tuple[float, str, int, int]]:
+           eps: float, jumps: bool = True) -> list[tuple[float, str, int, int]]:
     """The switches between points ``t`` (in time order) of values ``v`` with activity ``s``:
     ``(where, kind, i, j)``, the switch between points ``i`` and ``j`` (their activities differ). A run
     of free points between the two bounds is one jump (bang-bang), however many points and intervals it
     spans: on very short intervals next to a jump the NLP's inputs are nearly arbitrary, the objective
-    hardly depends on them. A free run next to one bound counts (two junctions) only if it leaves the
+    hardly depends on them. Only a quantity that can jump (``jumps``: an input, or a path constraint of
+    inputs or multipliers) jumps; a continuous one (a coordinate, a speed, a path constraint of those
+    alone: :func:`bounded_quantities`) crosses from one bound to the other along a free arc, two junctions
+    (a UR5 elbow's speed limit, +3.15 rad/s held over 0.06-0.23 of the horizon, then 2.86, 2.23, ... down
+    to -3.15 from 0.5 on: taken as a jump, its bracket was the whole free arc and its "effect", 5.6 rad/s,
+    the speeds' estimate at every mesh); between two neighbouring points at opposite bounds, one junction
+    at their middle (the arc between them is not resolved). A free run next to one bound counts (two junctions) only if it leaves the
     bound by more than :data:`ARC` times ``eps`` (the activity threshold): else the bound is held loosely,
     IPOPT's ``mu / lambda`` where the bound's multiplier is small (on short intervals, whose multipliers
     scale with their length, and next to a switch, where the switching function vanishes)."""
@@ -142,7 +153,7 @@ def locate(t: np.ndarray, v: np.ndarray, s: np.ndarray, lower: float, upper: flo
     while i < n:
         if s[i] != 0:
             if i + 1 < n and s[i + 1] != 0 and s[i + 1] != s[i]:           # one bound straight to the other
-                found.append((0.5 * float(t[i] + t[i + 1]), "bang-bang", i, i + 1))
+                found.append((0.5 * float(t[i] + t[i + 1]), "bang-bang" if jumps else "junction", i, i + 1))
             i += 1
             continue
         j = i
@@ -150,7 +161,7 @@ def locate(t: np.ndarray, v: np.ndarray, s: np.ndarray, lower: float, upper: flo
             j += 1
         left = i - 1 if i > 0 else None
         right = j + 1 if j + 1 < n else None
-        if left is not None and right is not None and s[left] == -s[right]:
+        if jumps and left is not None and right is not None and s[left] == -s[right]:
             found.append((_crossing(t, v, 0.5 * (lower + upper), left, right), "bang-bang", left, right))
         elif np.abs(v[i : j + 1] - (lower if s[left if left is not None else right] < 0 else upper)).max() > ARC * eps:
             run = list(range(i, j + 1))
@@ -197,12 +208,12 @@ def detect_switches(solution) -> list[Switch]:
     D, T = np.asarray(solution.D, float), float(solution.t_final)
     first = frac[tr.offsets[:-1] + 1]              # each interval's first collocation point
     out = []
-    for name, v, lo, hi, states_only in bounded_quantities(solution):
+    for name, v, lo, hi, states_only, continuous in bounded_quantities(solution):
         s, eps = activity(v, lo, hi)
         idx = np.arange(0 if states_only else 1, len(v))
         if len(np.unique(s[idx])) < 2:
             continue
-        for at, kind, i, j in locate(frac[idx], v[idx], s[idx], lo, hi, eps):
+        for at, kind, i, j in locate(frac[idx], v[idx], s[idx], lo, hi, eps, jumps=not continuous):
             k = int(np.clip(np.searchsorted(mesh, at, side="right") - 1, 0, tr.scheme.intervals - 1))
             # Before the middle of the gap to the first collocation point: at the mesh point.
             inside = at - mesh[k] > 0.5 * (first[k] - mesh[k]) * (1.0 + 1e-9)

@@ -1,0 +1,53 @@
+"""A continuous bounded quantity (a speed limit: a path constraint of the states alone) crosses from one
+bound to the other along a free arc, two junctions; only inputs and multipliers jump (ocp/switch_detection.py,
+issue 19). Found by scripts/refinement_robustness.py on examples/robot_arm_urdf.py: the UR5 elbow's speed
+limit, taken as a jump, put a 5.6 rad/s "effect" into the states' estimate at every mesh."""
+from __future__ import annotations
+
+import math
+
+import casadi as ca
+import numpy as np
+
+from ocp_constraints import Model, OptimalControlProblem, Radau, joints
+from ocp_constraints.ocp.switch_detection import activity, bounded_quantities, locate
+
+
+def test_a_continuous_quantity_between_its_bounds_has_two_junctions_where_it_leaves_and_reaches_them():
+    # v = clip(3 cos(pi t), -1, 1): at +1 until acos(1/3)/pi, free, at -1 from acos(-1/3)/pi (closed form).
+    t = np.linspace(0.02, 0.98, 25)
+    v = np.clip(3.0 * np.cos(math.pi * t), -1.0, 1.0)
+    s, eps = activity(v, -1.0, 1.0)
+    leave, reach = math.acos(1 / 3) / math.pi, math.acos(-1 / 3) / math.pi
+    found = locate(t, v, s, -1.0, 1.0, eps, jumps=False)
+    assert [k for _, k, _, _ in found] == ["junction", "junction"]
+    spacing = t[1] - t[0]
+    assert abs(found[0][0] - leave) < spacing and abs(found[1][0] - reach) < spacing
+    # The same values of an input are one jump, as before (a smeared bang-bang between the bounds).
+    [(_, kind, _, _)] = locate(t, v, s, -1.0, 1.0, eps)
+    assert kind == "bang-bang"
+
+
+def test_neighbouring_points_at_opposite_bounds_of_a_continuous_quantity_are_a_junction():
+    t, v = np.array([0.1, 0.2, 0.3, 0.4]), np.array([1.0, 1.0, -1.0, -1.0])
+    s, eps = activity(v, -1.0, 1.0)
+    assert [k for _, k, _, _ in locate(t, v, s, -1.0, 1.0, eps, jumps=False)] == ["junction"]
+    assert [k for _, k, _, _ in locate(t, v, s, -1.0, 1.0, eps)] == ["bang-bang"]
+
+
+def test_path_constraints_of_the_states_alone_are_continuous_those_of_inputs_or_multipliers_are_not():
+    model = Model("block", gravity=(0.0, 0.0, -9.81))
+    block = model.add_body("block", 1.0, 0.1 * np.eye(3), rotation="321")
+    joints.prismatic(model, "slider", block.point("centre", (0.0, 0.0, 0.0)), axis=(1, 0, 0), anchor=(0.0, 0.0, 0.0))
+    model.add_force("push", block.com, ca.vertcat(model.add_input("F"), 0, 0))
+    problem = OptimalControlProblem(model, t_final=1.0)
+    problem.initial({"block.x": 0.0, "block.x_dot": 0.0})
+    problem.final({"block.x": 0.5, "block.x_dot": 0.0})
+    problem.minimize_effort()
+    problem.bound("F", -10.0, 10.0)
+    problem.subject_to(problem.quantity("block.vbar_x"), -0.7, 0.7, "speed limit")
+    problem.subject_to(problem.quantity("F") ** 2, 0.0, 50.0, "push squared")
+    problem.subject_to(problem.joint_force("slider")[2], -50.0, 50.0, "rail's lift")
+    sol = problem.solve(Radau(4, degree=3), progress=False)
+    flags = {name: continuous for name, _, _, _, _, continuous in bounded_quantities(sol)}
+    assert flags == {"F": False, "speed limit": True, "push squared": False, "rail's lift": False}
