@@ -33,6 +33,7 @@ from pathlib import Path
 os.environ.setdefault("MPLBACKEND", "Agg")
 ROOT = Path(__file__).resolve().parent.parent
 MARK = "ROW-JSON "
+SOLVE = "SOLVE "
 
 
 def _problems() -> dict:
@@ -57,6 +58,29 @@ def _where(exc: BaseException) -> str:
     return f"{Path(f.filename).name}:{f.lineno} {f.name}" if f else "?"
 
 
+def _log_solves() -> None:
+    """Print every solve of the refinement as it ends (mesh, IPOPT iterations, CPU and wall s), flushed:
+    of a run killed at the cap, :func:`run` keeps these lines, which say where its time went. A wrapper
+    of the refinement's own ``_timed_solve`` in this child process only; the library is unchanged."""
+    from ocp_constraints.ocp import mesh_refinement
+
+    solve = mesh_refinement._timed_solve
+
+    def logged(problem, scheme, *args, **kwargs):
+        started = time.process_time()
+        try:
+            sol, elapsed, cpu = solve(problem, scheme, *args, **kwargs)
+        except Exception:
+            print(f"{SOLVE}{scheme.intervals}x{scheme.point_count} failed after "
+                  f"{time.process_time() - started:.1f} s CPU", flush=True)
+            raise
+        print(f"{SOLVE}{scheme.intervals}x{scheme.point_count} {sol.iterations} it {cpu:.1f} s CPU "
+              f"{elapsed:.1f} s wall", flush=True)
+        return sol, elapsed, cpu
+
+    mesh_refinement._timed_solve = logged
+
+
 def one(name: str, tol: float) -> dict:
     """Build ``name`` and solve it to ``tol``; the row (see the module's notes)."""
     import numpy as np
@@ -65,6 +89,7 @@ def one(name: str, tol: float) -> dict:
     from ocp_constraints.errors import OcpConstraintsError
 
     row = {"problem": name, "tolerance": tol, "outcome": "?", "met": False}
+    _log_solves()
     cpu, wall = time.process_time(), time.perf_counter()
     record = None
     try:
@@ -108,10 +133,13 @@ def run(name: str, tol: float, cap_s: float) -> dict:
     try:
         done = subprocess.run([sys.executable, str(Path(__file__).resolve()), "--one", name, repr(tol)],
                               capture_output=True, text=True, timeout=cap_s, cwd=ROOT)
-    except subprocess.TimeoutExpired:
+    except subprocess.TimeoutExpired as exc:
         after = resource.getrusage(resource.RUSAGE_CHILDREN)
+        out = exc.stdout.decode() if isinstance(exc.stdout, bytes) else (exc.stdout or "")
+        solves = [x[len(SOLVE):] for x in out.splitlines() if x.startswith(SOLVE)]
         return {"problem": name, "tolerance": tol, "outcome": "cap", "met": False,
-                "message": f"killed at the {cap_s:g} s wall cap", "wall_s": time.perf_counter() - wall,
+                "message": f"killed at the {cap_s:g} s wall cap after {len(solves)} solves: " + "; ".join(solves),
+                "solve_log": solves, "wall_s": time.perf_counter() - wall,
                 "process_cpu_s": (after.ru_utime + after.ru_stime) - (before.ru_utime + before.ru_stime)}
     after = resource.getrusage(resource.RUSAGE_CHILDREN)
     lines = [x for x in done.stdout.splitlines() if x.startswith(MARK)]
@@ -149,7 +177,7 @@ def table(rows: list[dict], order: list[str]) -> str:
                  f"{r.get('intervals', '')} / {r.get('points', '')}" if "points" in r else "",
                  f"{_g(e.get('states'))} / {_g(e.get('multipliers'))} ({_g(e.get('inputs'))} / {_g(e.get('final_time'))})"
                  if e else "", meshes, f"{_g(r.get('cpu_s'), '.1f')} ({_g(r.get('process_cpu_s'), '.1f')})",
-                 _g(r.get("wall_s", r.get("process_wall_s")), ".1f"), text.replace("|", "/").replace("\n", " ")[:400]]
+                 _g(r.get("wall_s", r.get("process_wall_s")), ".1f"), text.replace("|", "/").replace("\n", " ")[:400 if r["outcome"] != "cap" else 1200]]
         out.append("| " + " | ".join(cells) + " |")
     return "\n".join(out)
 
