@@ -1,8 +1,8 @@
 """The stall rule of mesh refinement (ocp/mesh_progress.py) on refinement histories of the suite's problems.
 
-The histories are the measured ones written in the README and in the module (points, largest estimate per
-refinement): the four-bar at 1e-4, which refinement did not converge on, must stop; the walker's small steps at
-switches, which met 1e-4 after one flat step, and the swing-up's and acrobot's converging steps must go on.
+The histories are measured ones (points, largest estimate per refinement): the four-bar at 1e-4, on which
+refinement did not converge, must stop; the suite's rolling disk at 1e-3, which stalled once and then met at 246
+points, the walker's small steps at switches, and the swing-up's and acrobot's converging steps must go on.
 """
 from ocp_constraints.ocp.mesh_progress import STALL_GROWTH, stall_message
 
@@ -12,12 +12,19 @@ def _history(*steps):
              "worst": {"states": "crank.omega_z", "multipliers": "O.v1.lambda"}} for p, e in steps]
 
 
-def test_the_four_bar_stops_when_doubling_the_points_cuts_its_estimate_only_1_4x():
-    h = _history((31, 3.25), (281, 0.356), (883, 0.0151))
-    assert stall_message(h, 1e-4) is None                       # 3.1x the points, 24x lower: going on
-    msg = stall_message(_history((31, 3.25), (281, 0.356), (883, 0.0151), (1709, 0.0108)), 1e-4)
+FOUR_BAR = _history((31, 3.25), (281, 0.356), (883, 0.0151), (1709, 0.0108), (3361, 0.0233))
+
+
+def test_the_four_bar_stops_after_two_refinements_that_doubled_its_points_for_little():
+    assert all(stall_message(FOUR_BAR[:k], 1e-4) is None for k in range(2, 5))   # 1709 points: stalled once
+    msg = stall_message(FOUR_BAR, 1e-4)
     assert msg is not None
-    assert "1.9x (883 -> 1709 points)" in msg and "1.4x" in msg and "crank.omega_z" in msg and "1e-04" in msg
+    assert "883 -> 1709 -> 3361 points" in msg and "crank.omega_z" in msg and "1e-04" in msg
+
+
+def test_one_stall_while_the_mesh_moves_to_a_switch_goes_on():
+    disk = _history((31, 0.0757), (71, 0.0201), (141, 0.0114), (239, 0.00184), (246, 4.6e-4))   # met at 246
+    assert all(stall_message(disk[:k], 1e-3) is None for k in range(2, 6))
 
 
 def test_small_steps_at_switches_and_converging_steps_go_on():
@@ -30,15 +37,16 @@ def test_small_steps_at_switches_and_converging_steps_go_on():
 
 
 def test_the_first_refinement_is_not_judged():
-    disk = _history((31, 0.14), (71, 0.067))       # the rolling disk at 1e-3: 2.3x the points, 2.1x lower; met next
+    disk = _history((31, 0.14), (71, 0.067), (150, 0.05))   # 31 -> 71 would stall; only 71 -> 150 counts
     assert stall_message(disk, 1e-3) is None
 
 
 def test_a_step_is_judged_from_the_growth_threshold_and_only_between_resolved_solutions():
-    at = _history((31, 1.0), (100, 1e-3), (100 * STALL_GROWTH, 1e-3 / (STALL_GROWTH * 0.99)))
-    assert stall_message(at, 1e-6) is not None                   # grew 1.5x, fell slightly less
-    below = _history((31, 1.0), (100, 1e-3), (100 * STALL_GROWTH - 1, 1e-3))
-    assert stall_message(below, 1e-6) is None                    # grew less than the threshold: not judged
-    unresolved = _history((16, 4.0), (31, 3.25), (281, 3.0))
-    unresolved[1]["resolved"] = False
+    g = STALL_GROWTH
+    at = _history((31, 1.0), (100, 1e-3), (100 * g, 1e-3 / (g * 0.99)), (100 * g * g, 1e-3 / (g * 0.99) ** 2))
+    assert stall_message(at, 1e-6) is not None                   # twice 1.5x the points, each a little less lower
+    below = _history((31, 1.0), (100, 1e-3), (100 * g, 1e-3), (100 * g * g - 1, 1e-3))
+    assert stall_message(below, 1e-6) is None                    # the second grew less than the threshold
+    unresolved = _history((16, 4.0), (31, 3.25), (281, 3.0), (600, 3.0))
+    unresolved[2]["resolved"] = False
     assert stall_message(unresolved, 1e-4) is None               # the guard's uniform step, not a refinement
