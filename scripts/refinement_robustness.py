@@ -3,6 +3,7 @@ refinement meet the tolerance, stop honestly with a message, run past a time cap
 
     python scripts/refinement_robustness.py [--tolerances 1e-3 1e-5] [--only NAME ...] [--cap-s 120]
         [--json results/bench/refinement_robustness.json] [--markdown results/bench/refinement_robustness.md]
+        [--notes NOTES.md] [--table-only]
     python scripts/refinement_robustness.py --one NAME TOL        # one run, its row as JSON on stdout
 
 The problems are the set of ``scripts/ocp_default_robustness.py`` (scene tasks, suite problems, newcomer
@@ -196,7 +197,7 @@ def summary(rows: list[dict]) -> str:
     return "\n".join(out)
 
 
-def write(rows: list[dict], path: Path, argv: list[str], order: list[str]) -> None:
+def write(rows: list[dict], path: Path, argv: list[str], order: list[str], notes: str = "") -> None:
     import platform
 
     head = (f"# `problem.solve(tolerance=...)` on every optimal-control problem we have\n\n"
@@ -207,7 +208,8 @@ def write(rows: list[dict], path: Path, argv: list[str], order: list[str]) -> No
             f"included, in brackets); wall: build + solve. Estimates: states absolute (SI), multipliers relative "
             f"to the largest load; inputs and final time are not gated.\n\n")
     tmp = path.with_suffix(".tmp")
-    tmp.write_text(head + "## Summary\n\n" + summary(rows) + "\n\n## Runs\n\n" + table(rows, order) + "\n")
+    tmp.write_text(head + "## Summary\n\n" + summary(rows) + "\n\n" + (notes.strip() + "\n\n" if notes else "")
+                   + "## Runs\n\n" + table(rows, order) + "\n")
     tmp.replace(path)
 
 
@@ -219,6 +221,8 @@ def main() -> None:
     ap.add_argument("--cap-s", type=float, default=120.0, help="wall-clock cap of one run, s (killed past it)")
     ap.add_argument("--json", type=Path, default=ROOT / "results" / "bench" / "refinement_robustness.json")
     ap.add_argument("--markdown", type=Path, default=ROOT / "results" / "bench" / "refinement_robustness.md")
+    ap.add_argument("--notes", type=Path, default=None, help="markdown put after the summary (findings)")
+    ap.add_argument("--table-only", action="store_true", help="run nothing: write --markdown from the rows in --json")
     args = ap.parse_args()
     if args.one:
         print(MARK + json.dumps(one(args.one[0], float(args.one[1]))), flush=True)
@@ -229,6 +233,10 @@ def main() -> None:
     if unknown:
         ap.error(f"unknown problem(s) {unknown}; known: {', '.join(order)}")
     rows = json.loads(args.json.read_text()) if args.json.exists() else []
+    notes = args.notes.read_text() if args.notes else ""
+    if args.table_only:
+        write(rows, args.markdown, sys.argv[1:], order, notes)
+        return
     for tol in args.tolerances:
         for name in names:
             row = run(name, tol, args.cap_s)
@@ -238,7 +246,7 @@ def main() -> None:
                   f"{(row.get('message') or row.get('error') or '')[:150]}", flush=True)
             args.json.parent.mkdir(parents=True, exist_ok=True)
             args.json.write_text(json.dumps(rows, indent=1))
-            write(rows, args.markdown, sys.argv[1:], order)
+            write(rows, args.markdown, sys.argv[1:], order, notes)
 
 
 if __name__ == "__main__":
