@@ -11,53 +11,66 @@ four-bar of the suite at 1e-4 went 883 -> 1,709 points for an estimate 1.5e-2 ->
 3,361 points and 470 s of CPU for 2.3e-2 (it stops there now), and on for as long as
 ``max_refinements`` (10) let it.
 
-The rule judges the last two refinements together (one can stall while the mesh moves to a switch),
-never the first refinement (the first mesh is coarse, its estimate pre-asymptotic), and only where
-the two grew the mesh by at least :data:`STALL_GROWTH`: the small steps of a refinement that splits a
-few intervals at switches (the walker, the minimum-time swing-up, 1.02-1.25x the points) may leave
-the estimate flat for a step and then meet the tolerance, and are not judged by it.
+Refinement stops at the second such refinement, or at the first that made no progress at all (one
+that made some can be the mesh moving to a switch). It never judges the first refinement (the first
+mesh is coarse, its estimate pre-asymptotic), nor refinements that grew the mesh by less than
+:data:`STALL_GROWTH`: the small steps of a refinement that splits a few intervals at switches (the
+walker, the minimum-time swing-up, 1.02-1.25x the points) may leave the estimate flat for a step
+and then meet the tolerance.
 """
 from __future__ import annotations
 
-STALL_GROWTH = 2.0      # two refinements that multiplied the points by at least this are judged by the rule
+STALL_GROWTH = 1.5      # a refinement that multiplied the points by at least this is judged by the rule
 
 
 def _largest(entry: dict, quantities) -> float:
     return max(float(entry["estimate"][q]) for q in quantities)
 
 
+def _stalls(history: list[dict], quantities) -> list[tuple[int, float, float, bool]]:
+    """The stalled refinements after the first: ``(index, growth, fall, no_progress)`` for each that grew the
+    points by ``growth >= STALL_GROWTH`` and divided the largest estimate by ``fall < growth``;
+    ``no_progress``: its estimate is no lower than the lowest one before it."""
+    out = []
+    for k in range(2, len(history)):
+        prev, cur = history[k - 1], history[k]
+        if not (prev.get("resolved", True) and cur.get("resolved", True)) or "estimate" not in prev or "estimate" not in cur:
+            continue
+        growth = cur["points"] / prev["points"]
+        before, after = _largest(prev, quantities), _largest(cur, quantities)
+        fall = before / after if after > 0 else float("inf")
+        if growth >= STALL_GROWTH and fall < growth:
+            lowest = min(_largest(e, quantities) for e in history[1:k] if "estimate" in e)
+            out.append((k, growth, fall, after >= lowest))
+    return out
+
+
 def stall_message(history: list[dict], tol: float, quantities=("states", "multipliers")) -> str | None:
     """Why refinement should stop now, or ``None`` to go on.
 
     ``history``: the refinement's entries so far (each with ``points``, ``estimate`` per quantity and
-    ``resolved``), the last one just estimated. Over the last two refinements (neither of them the
-    first), if the points grew by ``growth >= STALL_GROWTH`` and the largest estimate of ``quantities``
-    fell by less than ``growth``, refinement has stalled. Two refinements, not one: while the mesh moves
-    to a switch one refinement can stall and the next converge (the suite's rolling disk at 1e-3: 71 ->
-    141 points for an estimate 1.8x lower, then 239 points 6.2x lower, met at 246); and two, not "two
-    stalls in a row", so that a small step between them does not hide a stall (the rolling disk's drive
-    at 1e-5: 141 -> 281 points 0.9x lower, 281 -> 547 2.75x lower, then small steps, a jump of the
-    estimate to 1.1e-2 and 1,889 and 5,164 points, past 540 s of CPU).
+    ``resolved``), the last one just estimated. A refinement (not the first) *stalls* when it multiplied
+    the points by ``growth >= STALL_GROWTH`` and divided the largest estimate of ``quantities`` by less
+    than ``growth``. Refinement stops at the second stall, or at the first that made no progress at all
+    (its estimate no lower than one reached before). One stall that made progress is not enough: while
+    the mesh moves to a switch a refinement can stall and the next converge (the suite's rolling disk at
+    1e-3: 71 -> 141 points for an estimate 1.8x lower, then 239 points 6.2x lower, met at 246). Measured
+    cases the rule was checked on: ``tests/test_mesh_progress.py``.
     """
-    if len(history) < 4:    # the first mesh is pre-asymptotic: the rolling disk's first refinement (31 -> 71
-        return None         # points) cut its estimate only 2.1x, and the next met 1e-3 (92 points)
-    window = history[-3:]
-    if any(not e.get("resolved", True) or "estimate" not in e for e in window):
+    stalls = _stalls(history, quantities)
+    if not stalls or stalls[-1][0] != len(history) - 1 or not (len(stalls) >= 2 or stalls[-1][3]):
         return None
-    start, end = window[0], window[-1]
-    growth = end["points"] / start["points"]
-    before, after = _largest(start, quantities), _largest(end, quantities)
-    fall = before / after if after > 0 else float("inf")
-    if growth < STALL_GROWTH or fall >= growth:
-        return None
-    worst = end.get("worst", {})
+    _, growth, fall, _ = stalls[-1]
+    prev, cur = history[-2], history[-1]
+    worst = cur.get("worst", {})
     where = ", ".join(f"{q}: {worst[q]}" for q in quantities if q in worst)
-    best = min(_largest(e, quantities) for e in history[1:])
-    return (f"refinement stalled: the last two refinements grew the mesh {growth:.1f}x ("
-            f"{' -> '.join(str(e['points']) for e in window)} points) and changed the estimate only {fall:.2g}x "
-            f"({' -> '.join(f'{_largest(e, quantities):.1e}' for e in window)}), where a converging solution's falls "
-            f"faster than its points grow; the solution and its companion do not converge together here (largest "
-            f"differences: {where}), so more points would cost more than the last and are unlikely to reach "
-            f"{tol:.0e}. The last solution is returned with its estimate (the lowest reached: {best:.1e}): accept a "
-            f"larger tolerance, or look for a singular or non-unique arc, a path constraint's junction or a local "
-            f"optimum that moves with the mesh")
+    best = min(_largest(e, quantities) for e in history[1:] if "estimate" in e)
+    why = (f"the {len(stalls)} refinements that grew the points {STALL_GROWTH:g}x or more and cut the estimate by "
+           f"less" if len(stalls) >= 2 else "it is no lower than one reached before")
+    return (f"refinement stalled: the last refinement grew the mesh {growth:.1f}x ({prev['points']} -> {cur['points']} "
+            f"points) and changed the estimate only {fall:.2g}x ({_largest(prev, quantities):.1e} -> "
+            f"{_largest(cur, quantities):.1e}; {why}), where a converging solution's falls faster than its points "
+            f"grow; the solution and its companion do not converge together here (largest differences: {where}), so "
+            f"more points would cost more than the last and are unlikely to reach {tol:.0e}. The last solution is "
+            f"returned with its estimate (the lowest reached: {best:.1e}): accept a larger tolerance, or look for a "
+            f"singular or non-unique arc, a path constraint's junction or a local optimum that moves with the mesh")
