@@ -84,6 +84,8 @@ def _timed_solve(problem, *args, **kwargs):
     try:
         sol = problem.solve(*args, progress=False, **kwargs)
     except oc.OCPSolveError as exc:
+        if str(getattr(exc.solution, "status", "")).startswith("interrupted by"):
+            raise       # a signal (Ctrl-C, a time limit) ends the bench, not only this solve
         sol = exc.solution
     return sol, time.perf_counter() - started, time.process_time() - cpu
 
