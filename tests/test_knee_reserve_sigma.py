@@ -106,3 +106,33 @@ def test_wrong_number_of_weights_is_refused():
     t, Q, R, A, F0 = _problem()
     with pytest.raises(KneeError, match="reserve_weight"):
         solve_static(t, Q, R, A, F0, reserve_weight=[1.0, 2.0])
+
+
+def test_per_frame_weights_give_each_frames_map_estimate():
+    """Issue 15, C19: one weight per frame and row (frames x RESERVED); each frame is its own closed form."""
+    t, Q, R, A, F0 = _problem(seed=3)
+    W = np.ones((len(t), len(RESERVED)))
+    W[:, :3] = [[2.0, 0.1, 0.5], [0.02, 1.0, 4.0], [0.3, 0.3, 0.3]]
+    res = solve_static(t, Q, R, A, F0, reserve_weight=W)
+    for k in range(len(t)):
+        a_ref, rho_ref = _closed_form(Q[k:k + 1], R[k:k + 1], F0, W[k])
+        assert np.all((a_ref > 0.0) & (a_ref < 1.0))
+        assert np.allclose(res.activation[k], a_ref[0], atol=1e-6)
+        assert np.allclose(res.reserve[k, :3], rho_ref[0], atol=1e-5)
+
+
+def test_per_frame_weights_of_ones_are_todays_collocation_problem():
+    from ocp_constraints.biomech.knee_collocation import solve_collocation
+
+    t, Q, R, A, F0 = _problem(seed=4)
+    uniform = solve_collocation(t, Q, R, A, F0)
+    frames = solve_collocation(t, Q, R, A, F0, reserve_weight=np.ones((len(t), len(RESERVED))))
+    assert uniform.iterations == frames.iterations
+    assert np.array_equal(uniform.activation, frames.activation)
+    assert np.array_equal(uniform.reserve, frames.reserve)
+
+
+def test_per_frame_weights_of_the_wrong_shape_are_refused():
+    t, Q, R, A, F0 = _problem()
+    with pytest.raises(KneeError, match="per frame|one per frame"):
+        solve_static(t, Q, R, A, F0, reserve_weight=np.ones((len(t) + 1, len(RESERVED))))

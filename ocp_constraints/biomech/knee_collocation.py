@@ -70,7 +70,7 @@ import casadi as ca
 import numpy as np
 
 from .knee_static import (KKT_OPTIONS, LOAD_SCALE, RESERVE_WEIGHT, RESERVED, StaticResult, _balance_residual,
-                          _block_diagonal)
+                          _block_diagonal, reserve_weight_rows)
 from ..errors import KneeError
 from ..output.signals import call_interruptibly
 
@@ -181,7 +181,7 @@ def solve_collocation(t, Qc, R, A, F0, muscles_on: bool = True, contact_nonnegat
     slope = ca.horzcat(dA[:, 0], dA)                     # a_k - a_{k-1}; a_1 - a_0 at k = 0
     defect = slope - ca.DM(np.tile(hk, (nm, 1))) * activation_rate(e, a, tau_act, tau_deact, smoothing)
     weights = np.zeros((nx, N))
-    weights[:2 * nm], weights[2 * nm + 5:] = 0.5 * w, reserve_weight * w
+    weights[:2 * nm], weights[2 * nm + 5:] = 0.5 * w, reserve_weight_rows(reserve_weight, N) * w
     nlp = {"x": X, "f": ca.dot(ca.DM(weights.ravel(order="F")), X * X),
            "g": ca.vertcat(ca.mtimes(B, X) - ca.DM(rhs), ca.vec(defect))}
     solver = ca.nlpsol("knee_col", "ipopt", nlp, {"ipopt.print_level": print_level, "print_time": False, "ipopt.sb": "yes",

@@ -186,12 +186,25 @@ def reserve_weights_from_sigma(sigma: dict[str, float]) -> np.ndarray:
     return w
 
 
+def reserve_weight_rows(reserve_weight, N: int) -> np.ndarray:
+    """The reserves' weights (per (N m)^2) as a :data:`RESERVED` x ``N`` frames array: ``reserve_weight`` is one
+    finite weight > 0, one per reserved row, or one per frame and row (frames x rows; issue 15, C19:
+    :func:`.knee_id_uncertainty.reserve_weights_per_frame`)."""
+    nres = len(RESERVED)
+    w_res = np.asarray(reserve_weight, float)
+    if w_res.shape not in ((), (1,), (nres,), (N, nres)) or not np.all(np.isfinite(w_res) & (w_res > 0)):
+        raise KneeError(f"reserve_weight {reserve_weight!r}: one finite weight > 0, one per reserved coordinate "
+                        f"({', '.join(RESERVED)}), or one per frame and reserved coordinate ({N} x {nres})")
+    return w_res.T if w_res.ndim == 2 else np.broadcast_to(w_res.reshape(-1, 1), (nres, N))
+
+
 def solve_static(t, Qc, R, A, F0, muscles_on: bool = True, contact_nonnegative: bool = True,
                  reserve_weight=RESERVE_WEIGHT, passive=None) -> StaticResult:
     """All frames in one NLP (IPOPT): see the module docstring. ``Qc`` in N m / N.
 
-    ``reserve_weight``: the cost of the reserves per (N m)^2, one number for all of them or one per
-    :data:`RESERVED` row (e.g. :func:`reserve_weights_from_sigma`).
+    ``reserve_weight``: the cost of the reserves per (N m)^2, one number for all of them, one per
+    :data:`RESERVED` row (e.g. :func:`reserve_weights_from_sigma`) or one per frame and row
+    (:func:`reserve_weight_rows`).
 
     Muscle tension ``F = a F0 + passive``: ``F0`` (N) per muscle (ideal force generators,
     the model's max isometric force) or per frame and muscle (the Hill force at full
@@ -215,12 +228,8 @@ def solve_static(t, Qc, R, A, F0, muscles_on: bool = True, contact_nonnegative: 
     rhs = ((Qc - np.einsum("ncm,nm->nc", R, passive)) / LOAD_SCALE).ravel()
     # effort sum a^2 + w sum rho^2 as one weighted dot product over all frames (frame-major x): a mapped
     # per-frame Function gave the same optimum with 0.1 s more CPU to build (ngait_og5)
-    w_res = np.asarray(reserve_weight, float)
-    if w_res.ndim > 1 or w_res.size not in (1, nres) or not np.all(np.isfinite(w_res) & (w_res > 0)):
-        raise KneeError(f"reserve_weight {reserve_weight!r}: one finite weight > 0, or one per reserved coordinate "
-                        f"({', '.join(RESERVED)})")
     weights = np.zeros((nx, N))
-    weights[:nm], weights[nm + 5:] = 1.0, np.broadcast_to(w_res.reshape(-1, 1), (nres, 1))
+    weights[:nm], weights[nm + 5:] = 1.0, reserve_weight_rows(reserve_weight, N)
     X = ca.MX.sym("X", nx * N)
     nlp = {"x": X, "f": ca.dot(ca.DM(weights.ravel(order="F")), X * X), "g": ca.mtimes(B, X) - ca.DM(rhs)}
     # a convex QP (quadratic effort, linear balances, bounds): Mehrotra's predictor-corrector, which IPOPT
