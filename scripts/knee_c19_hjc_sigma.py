@@ -151,7 +151,7 @@ def main() -> None:
     lines = [head, "|---|---|---|---|---|---|---|---|---|---|"]
     rule = {"collocation": {"solves": True, "hip within 2 sigma": True, "others within 10 N m": True},
             "static": {"solves": True, "hip within 2 sigma": True, "others within 10 N m": True}}
-    sig_lines, times, trials = [], [], {}
+    sig_lines, times, trials, shift_lines = [], [], {}, []
     for trial in TRIALS:
         folder = J / "reducepoly_subject_GC" if trial == "ngait_og5" else args.data
         run = inputs(folder, trial)
@@ -171,6 +171,7 @@ def main() -> None:
         if not args.no_sensitivity:
             plan += [(f"{name} (reported only), collocation", "collocation", name,
                       np.sqrt(hjc[name] ** 2 + SIGMA_0 ** 2)) for name in SENSITIVITY]
+        forces = {}
         for name, method, which, sig in plan:
             weights = None if which is None else reserve_weights_per_frame(dict(zip(HIP_ROWS, hjc[which].T)))
             res, wall, proc = solve(run, method, weights)
@@ -183,6 +184,9 @@ def main() -> None:
                     rule[method]["others within 10 N m"] &= max(r["peak_other_reserve"]) <= 10.0
             lines.append(f"| {trial} | {name} | {cells(r)} |")
             print(lines[-1], flush=True)
+            if name in ("default, collocation", "C19, collocation") and not isinstance(res, Exception):
+                forces[name] = res.force
+        shift_lines.append(muscle_shift(trial, trials[trial], forces, muscles))
     verdict = {m: all(v.values()) for m, v in rule.items()}
     text = ("# C19: hip reserves weighted by the hip-joint-centre error propagated through the inverse dynamics\n\n"
             "`python scripts/knee_c19_hjc_sigma.py --data <ReducePoly_forMSK 0b5ecfa>/ExampleTrackingSimulations/"
@@ -196,6 +200,9 @@ def main() -> None:
             + "\n\n## sigma_HJC,c(t) (N m) at s = 9.3 mm, flexion / adduction / rotation, and peak |F_hip|\n\n"
             "| trial | frames | flexion | adduction | rotation | peak abs(F_hip) (BW) |\n|---|---|---|---|---|---|\n"
             + "\n".join(sig_lines)
+            + "\n\n## Where C19 moves the hip's work (collocation, at the frame of C19's largest adduction reserve)\n\n"
+            "| trial | frame (s) | hip reserves default -> C19 (N m) | muscle forces default -> C19 (N), largest changes |"
+            "\n|---|---|---|---|\n" + "\n".join(shift_lines)
             + "\n\n## Adoption rule (preregistration, seventh round)\n\n"
             + "\n".join(f"- {m}{' (decides)' if m == 'collocation' else ' (reported)'}: "
                         + "; ".join(f"{k}: {'yes' if v else 'no'}" for k, v in rule[m].items())
@@ -209,6 +216,20 @@ def main() -> None:
     figure(args.out / "c19_hjc_sigma.png", trials)
     print(text)
     print(f"{time.perf_counter() - clock:.1f} s wall, {time.process_time() - cpu:.1f} s CPU")
+
+
+def muscle_shift(trial: str, d: dict, forces: dict, muscles: list[str]) -> str:
+    """One table row: at the frame of C19's (collocation) largest |adduction reserve|, the hip reserves and the eight
+    muscles whose force changed most, default -> C19."""
+    base, c19 = d["rows"]["default, collocation"], d["rows"]["C19, collocation"]
+    if not (base["solved"] and c19["solved"]) or len(forces) < 2:
+        return f"| {trial} | - | - | a collocation did not solve |"
+    k = int(np.abs(np.asarray(c19["rho"])[:, 1]).argmax())
+    f0, f1 = forces["default, collocation"][k], forces["C19, collocation"][k]
+    order = np.argsort(-np.abs(f1 - f0))[:8]
+    rho = " / ".join(f"{np.asarray(base['rho'])[k, c]:+.1f} -> {np.asarray(c19['rho'])[k, c]:+.1f}" for c in range(3))
+    return (f"| {trial} | {d['t'][k]:.3f} | {rho} | "
+            + ", ".join(f"{muscles[i]} {f0[i]:.0f} -> {f1[i]:.0f}" for i in order) + " |")
 
 
 def hip_force(run: dict) -> np.ndarray:
