@@ -121,7 +121,9 @@ def solve_collocation_or_static(t, Qc, R, A, F0, muscles_on: bool = True, passiv
     except KneeError as exc:
         if not str(exc).startswith("collocation failed"):
             raise
-        res = solve_static(t, Qc, R, A, F0, muscles_on=muscles_on, passive=passive)
+        # The same problem's static limit: the options the two share (reserve weights, contact signs) go along.
+        shared = {k: options[k] for k in ("reserve_weight", "contact_nonnegative") if k in options}
+        res = solve_static(t, Qc, R, A, F0, muscles_on=muscles_on, passive=passive, **shared)
         res.fallback = (f"{exc}; the loads are the static optimisation's (activation dynamics left out: "
                         f"their limit of instant activation)")
         return res
