@@ -10,7 +10,8 @@ each run, and the steps' wall seconds from its summary.json (inverse dynamics, b
 ``knee_collocation.KKT_OPTIONS`` sets (the code before them), for a before/after pair in the same conditions.
 ``--timeline``: one more run in this process with the time since the interpreter started at which
 each step begins and ends (imports, ``run_knee``'s steps, writing the results and figure), to find the fixed
-costs outside the solve.
+costs outside the solve. ``--casadi-blas-threads N``: the command with CasADi's OpenBLAS (the BLAS MUMPS calls)
+set to N threads after it loads (NumPy's stays at one), to measure a second core in the KKT factorizations.
 """
 from __future__ import annotations
 
@@ -42,22 +43,34 @@ BEFORE = ("import os, sys; os.environ.setdefault('OPENBLAS_NUM_THREADS', '1'); "
           "sys.exit(main(sys.argv[1:]))")
 
 
-def command(method: str, out: Path, before: bool = False) -> list[str]:
-    """The knee command line; ``before``: the same through ``python -c`` with IPOPT's defaults for KKT_OPTIONS."""
+# CasADi's own OpenBLAS (MUMPS's dense kernels) with N threads, NumPy's left at one as cli_knee sets it: a
+# measurement of whether a second core pays in the KKT factorizations (not what the command does)
+CASADI_BLAS = ("import os, sys, ctypes; os.environ.setdefault('OPENBLAS_NUM_THREADS', '1'); import casadi; "
+               "from pathlib import Path; ctypes.CDLL(str(Path(casadi.__file__).parent / "
+               "'libcasadi-tp-openblas.so.0')).openblas_set_num_threads({n}); "
+               "from ocp_constraints.cli.main import main; sys.exit(main(sys.argv[1:]))")
+
+
+def command(method: str, out: Path, before: bool = False, casadi_blas_threads: int | None = None) -> list[str]:
+    """The knee command line; ``before``: the same through ``python -c`` with IPOPT's defaults for KKT_OPTIONS;
+    ``casadi_blas_threads``: through ``python -c`` with CasADi's OpenBLAS set to that many threads."""
     if before:
         return [sys.executable, "-c", BEFORE, "knee", *ARGS, "--method", method, "--out", str(out)]
+    if casadi_blas_threads:
+        return [sys.executable, "-c", CASADI_BLAS.format(n=int(casadi_blas_threads)), "knee", *ARGS,
+                "--method", method, "--out", str(out)]
     exe = Path(sys.executable).parent / "ocp-constraints"
     return [str(exe), "knee", *ARGS, "--method", method, "--out", str(out)]
 
 
-def timed_runs(method: str, runs: int, before: bool = False) -> None:
+def timed_runs(method: str, runs: int, before: bool = False, casadi_blas_threads: int | None = None) -> None:
     rows = []
     for i in range(runs):
         with tempfile.TemporaryDirectory() as tmp:
             load = os.getloadavg()[0]
             usage = resource.getrusage(resource.RUSAGE_CHILDREN)
             wall = time.perf_counter()
-            subprocess.run(command(method, Path(tmp) / "out", before), check=True, stdout=subprocess.DEVNULL,
+            subprocess.run(command(method, Path(tmp) / "out", before, casadi_blas_threads), check=True, stdout=subprocess.DEVNULL,
                            stderr=subprocess.DEVNULL, env={**os.environ, "MPLBACKEND": "Agg"})
             wall = time.perf_counter() - wall
             after = resource.getrusage(resource.RUSAGE_CHILDREN)
@@ -117,8 +130,10 @@ if __name__ == "__main__":
     ap.add_argument("--timeline", action="store_true")
     ap.add_argument("--before", action="store_true",
                     help="the collocation with IPOPT's defaults instead of knee_collocation.KKT_OPTIONS (the code before)")
+    ap.add_argument("--casadi-blas-threads", type=int, default=None, metavar="N",
+                    help="CasADi's OpenBLAS (MUMPS's dense kernels) with N threads, NumPy's with one (a measurement)")
     a = ap.parse_args()
     if a.runs:
-        timed_runs(a.method, a.runs, a.before)
+        timed_runs(a.method, a.runs, a.before, a.casadi_blas_threads)
     if a.timeline:
         timeline(a.method)

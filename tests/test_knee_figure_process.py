@@ -36,3 +36,46 @@ def test_a_dead_drawing_process_leaves_the_knee_figure_to_the_parent(tmp_path):
     assert _plot(dict(result=res, bw=1.0), tmp_path, fp) == "knee_contact.png"
     assert fp.error is not None
     assert _png_size(tmp_path / "knee_contact.png") == (800, 850)
+
+
+def _forced_drawing_process(monkeypatch):
+    """A DrawingProcess with its child whatever the load (OCP_OUTPUT_PROCESSES=2); skip where none can be forked."""
+    import pytest
+
+    from ocp_constraints.output.drawing_process import DrawingProcess
+
+    monkeypatch.setenv("OCP_OUTPUT_PROCESSES", "2")
+    fp = DrawingProcess()
+    if fp._proc is None:
+        pytest.skip(f"no drawing process here: {fp.error}")
+    return fp
+
+
+def test_a_submitted_figure_is_drawn_by_the_child_while_the_parent_works(tmp_path, monkeypatch):
+    """submit() returns at once; result() gives the child's file, the same bytes as drawn in this process."""
+    from ocp_constraints.output.joint_plots import write_knee_figure
+
+    fp = _forced_drawing_process(monkeypatch)
+    (tmp_path / "child").mkdir()
+    (tmp_path / "here").mkdir()
+    try:
+        fp.submit(write_knee_figure, tmp_path / "child", *_figure_args())
+        assert write_knee_figure(tmp_path / "here", *_figure_args()) == "knee_contact.png"   # the parent's work
+        assert fp.result() == "knee_contact.png"
+    finally:
+        fp.close()
+    assert fp.error is None                              # drawn by the child, not redrawn here
+    assert (tmp_path / "child" / "knee_contact.png").read_bytes() == (tmp_path / "here" / "knee_contact.png").read_bytes()
+
+
+def test_a_child_that_dies_after_submit_leaves_the_figure_to_the_parent(tmp_path, monkeypatch):
+    from ocp_constraints.output.joint_plots import write_knee_figure
+
+    fp = _forced_drawing_process(monkeypatch)
+    proc = fp._proc
+    fp.submit(write_knee_figure, tmp_path, *_figure_args())
+    proc.kill()                                          # e.g. killed by the OOM killer while drawing
+    proc.join(5.0)
+    assert fp.result() == "knee_contact.png"
+    assert fp.error is not None
+    assert _png_size(tmp_path / "knee_contact.png") == (800, 850)

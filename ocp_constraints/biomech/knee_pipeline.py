@@ -17,6 +17,7 @@ from ..errors import OcpConstraintsError
 from .knee_options import METHOD_DEFAULT, METHOD_TEXT, METHODS, MUSCLE_MODELS, PASSIVE_DEFAULT, QUADRICEPS, QUADRICEPS_DEFAULT
 from .knee_model import contact_matrix_function
 from .knee_static import frame_data, solve_static
+from .knee_summary import muscle_model_text as _muscle_model_text, passive_text as _passive_text
 from ..errors import KneeError
 
 LBF = 4.4482216153
@@ -258,6 +259,9 @@ def write_knee_results(run: dict, out, plots: bool = True, inputs: dict | None =
 
     run_folder = RunFolder(out)        # written whole: the previous run's files are replaced
     folder = run_folder.begin()
+    # the figure first: a drawing process draws it while this process writes the tables (cli_knee ends the
+    # process if this fails half-way); without one it is drawn here when its name is asked for
+    figure = _plot_submit(run, folder, figure_process) if plots else None
     r = run["result"]
     passive_name, passive = run.get("passive_hip", ("none", None))
     cols = r.sample_columns()
@@ -309,7 +313,7 @@ def write_knee_results(run: dict, out, plots: bool = True, inputs: dict | None =
             "objective": "int sum (e^2 + a^2)/2 + reserve_weight sum rho^2 dt (trapezoidal weights)"}
         summary["solve_time_s"] = r.timings["build"] + r.timings["solve"]
     if plots:
-        summary["plots"] = [_plot(run, folder, figure_process)]
+        summary["plots"] = [figure()]
         summary["report"] = "report.html"
     write_json(folder / "summary.json", summary)
     if plots:
@@ -320,47 +324,14 @@ def write_knee_results(run: dict, out, plots: bool = True, inputs: dict | None =
 
 
 
-def _passive_text(name: str, passive, moments: dict | None = None, fibres: dict | None = None) -> dict:
-    if passive is None:
-        return {"model": "none: the muscles (and reserves) carry the whole net hip flexion moment"}
-    from .knee_passive import HIP_KNEE_ANKLE, SOURCE, SOURCE_ALL
-
-    if name == HIP_KNEE_ANKLE:
-        out = {"model": name, "source": SOURCE_ALL,
-               "applied_to": "hip_flexion, knee_flexion and ankle_angle balances (muscles' share = Q - Q_passive)",
-               "range_Nm": {c: [float(m.min()), float(m.max())] for c, m in (moments or {}).items()}}
-    else:
-        out = {"model": name, "source": SOURCE, "applied_to": "hip_flexion balance (muscles' share = Q - M_passive)",
-               "range_Nm": [float(passive.min()), float(passive.max())]}
-    if fibres:          # Hill muscles: their fibres carry part of the measured passive moment, counted once
-        out["hill_fibres"] = ("the published moment is of all passive structures: the Hill fibres' passive "
-                              "generalized force (fibre_range_Nm) is part of it, the joint-level torque (range_Nm) "
-                              "is the rest, so fibres + joint-level = the published moment")
-        out["fibre_range_Nm"] = {c: [float(m.min()), float(m.max())] for c, m in fibres.items()}
-    return out
-
-
-def _muscle_model_text(run) -> dict:
-    data = run.get("model_data")
-    paths = ("muscle-tendon lengths fitted to OpenSim's paths of this model file "
-             f"({data.muscle_paths if data else 'ocp_constraints/biomech/data/jw_knee_muscle_paths.json'})")
-    if run.get("muscle_model", "ideal") == "ideal":
-        return {"name": "ideal", "tension": "F = a F0 (max_isometric_force from the model)", "paths": paths}
-    h, r = run["hill"], run["result"]
-    out = {"name": "hill", "tension": "F = F0 (a f_L f_V + f_PE) cos(alpha), rigid tendon",
-           "curves": "De Groote et al. 2016, Ann Biomed Eng 44:2922 (doi:10.1007/s10439-016-1591-9)",
-           "parameters": "max_isometric_force, optimal_fiber_length, tendon_slack_length, pennation_angle from the "
-                         "model file; l_opt and l_s both scaled by k so that the fibre is at l_opt in the upright "
-                         "reference pose (all angles zero); v_max = 10 l_opt/s",
-           "length_scale_factor": getattr(h, "scale", None), "paths": paths, "fiber_length_range": {}}
-    for i, m in enumerate(r.muscles):
-        out["fiber_length_range"][m] = [float(h.fiber_length[:, i].min()), float(h.fiber_length[:, i].max())]
-    return out
-
-
 def _plot(run, folder, figure_process=None) -> str:
     """``knee_contact.png``: predicted and measured contact forces (BW), the gait phases shaded; drawn by
     ``figure_process`` if it can, else here."""
+    return _plot_submit(run, folder, figure_process)()
+
+
+def _plot_submit(run, folder, figure_process=None):
+    """:func:`_plot` handed to ``figure_process`` now; returns the function that waits for its file name."""
     r, bw = run["result"], run["bw"]
     meas = run.get("measured")
     measured = None if meas is None else (meas[0], {"medial": meas[1] / bw, "lateral": meas[2] / bw,
@@ -371,8 +342,9 @@ def _plot(run, folder, figure_process=None) -> str:
     from ..output.joint_plots import write_knee_figure
 
     if figure_process is not None:       # drawn there, or here if it cannot
-        return figure_process.call(write_knee_figure, folder, *args)
-    return write_knee_figure(folder, *args)
+        figure_process.submit(write_knee_figure, folder, *args)
+        return figure_process.result
+    return lambda: write_knee_figure(folder, *args)
 
 
 CONDYLE_PARAMETERS = ("medial_cx", "medial_cy", "medial_cz", "lateral_cx", "lateral_cy", "lateral_cz")

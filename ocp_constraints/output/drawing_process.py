@@ -68,6 +68,7 @@ class DrawingProcess:
     def __init__(self, warm: Callable | None = None):
         self.error: str | None = None
         self._proc = None
+        self._request, self._sent = None, False       # the call handed over by submit(), and whether it was sent
         if os.name != "posix" or "fork" not in multiprocessing.get_all_start_methods():
             self.error = "fork is not available"
             return
@@ -92,12 +93,29 @@ class DrawingProcess:
     def call(self, fn: Callable, *args, timeout: float = 600.0, **kwargs):
         """``fn(*args, **kwargs)`` in the child (``fn`` a module-level function, the arguments picklable);
         in this process if the child cannot (reason in :attr:`error`). Its result either way."""
-        status, value = "error", None
+        self.submit(fn, *args, **kwargs)
+        return self.result(timeout)
+
+    def submit(self, fn: Callable, *args, **kwargs) -> None:
+        """Hand ``fn(*args, **kwargs)`` to the child and return at once: this process writes its other files
+        while the child draws; :meth:`result` waits for the answer (or runs ``fn`` here if the child cannot)."""
+        self._request, self._sent = (fn, args, kwargs), False
         if self._proc is None or not self._proc.is_alive():
             self.error = self.error or "the drawing process has ended"
-        else:
+            return
+        try:
+            self._conn.send((fn, args, kwargs))
+            self._sent = True
+        except (OSError, EOFError) as exc:
+            self.error = f"the drawing process failed: {exc}"
+            self.close()
+
+    def result(self, timeout: float = 600.0):
+        """The answer to :meth:`submit`'s call: the child's, else ``fn`` run in this process (:attr:`error` says why)."""
+        fn, args, kwargs = self._request
+        status, value = "error", None
+        if self._sent:
             try:
-                self._conn.send((fn, args, kwargs))
                 if self._conn.poll(timeout):
                     status, value = self._conn.recv()
                 else:
@@ -105,6 +123,7 @@ class DrawingProcess:
             except (OSError, EOFError) as exc:
                 self.error = f"the drawing process failed: {exc}"
             finally:
+                self._sent = False
                 self.close()
         if status == "ok":
             return value
