@@ -91,7 +91,9 @@ class MuscleParameters:
 def muscle_parameters(osim_path, names: list[str]) -> dict[str, MuscleParameters]:
     """``max_isometric_force`` etc. of the named muscles, from the model file."""
     try:
-        root = ET.parse(osim_path).getroot()
+        from .osim_model import model_xml
+
+        root = model_xml(osim_path)        # parsed once per process with the inverse dynamics
     except (OSError, ET.ParseError) as exc:
         raise MuscleDataError(f"{osim_path}: cannot read the model: {exc}") from exc
     found = {}
