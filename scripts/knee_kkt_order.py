@@ -12,7 +12,11 @@ reference solution in ``results/knee/collocation_speed/before_<trial>.npz``), tr
 - ``unknowns muscle-major`` / ``rows by frame`` / both: the unknowns ``x = P y`` (``y`` IPOPT's) and the
   constraint rows permuted; MUMPS's ordering starts from another matrix (ties broken elsewhere), IPOPT's
   iterates are the same up to rounding;
-- ``METIS`` / ``PORD`` / ``QAMD`` / ``AMD`` / ``SCOTCH``: another fill-reducing ordering of MUMPS.
+- ``METIS`` / ``PORD`` / ``QAMD`` / ``AMD`` / ``SCOTCH``: another fill-reducing ordering of MUMPS;
+- ``MUMPS scaling 0``: no scaling of the KKT matrix (IPOPT's default 77 lets MUMPS choose: a simultaneous
+  row/column scaling, recomputed at every factorization, ~4 % of the solve's samples under ``perf``).
+
+``--runs N``: the candidates in turn, N rounds, so that a change of the machine's load hits all alike.
 
 For each: MUMPS's operation count of one factorization of the first KKT matrix (its analysis, printed by
 IPOPT at mumps_print_level 2: exact, not timed), IPOPT iterations, CPU (``time.process_time``) and wall seconds
@@ -90,6 +94,8 @@ def candidate_solver(name: str, shape: dict):
         opts = dict(opts)
         if name in ORDERINGS:
             opts["ipopt.mumps_pivot_order"] = ORDERINGS[name]
+        if name == "MUMPS scaling 0":               # no scaling of the KKT matrix (default 77: MUMPS's choice)
+            return real(nm_, plugin, nlp, {**opts, "ipopt.mumps_scaling": 0})
         if name == "expand":
             return real(nm_, plugin, nlp, {**opts, "expand": True})
         if name in ("module default",) or name in ORDERINGS:
@@ -103,7 +109,7 @@ def candidate_solver(name: str, shape: dict):
 
 
 CANDIDATES = ["module default", "expand", "unknowns muscle-major", "rows by frame", "unknowns muscle-major, rows by frame",
-              "unknowns interleaved", "unknowns interleaved, rows by frame", *ORDERINGS]
+              "unknowns interleaved", "unknowns interleaved, rows by frame", *ORDERINGS, "MUMPS scaling 0"]
 
 
 def run(name: str, args, kwargs, estimate: bool, shape: dict):
@@ -158,23 +164,27 @@ def main() -> None:
         t = np.asarray(args[0], float)
         N, nr, nm = args[2].shape
         shape = {"N": N, "nr": nr, "nm": nm, "nx": 2 * nm + 5 + len(kc.RESERVED)}
+        est, rows, last = {}, {name: [] for name in a.candidates}, {}
         for name in a.candidates:
             _, _, _, _, text = run(name, args, kwargs, True, shape)
             flops = re.search(r"RINFOG\(1\) Operations during elimination \(estim\)\s*=\s*([0-9.D+E-]+)", text)
             front = re.search(r"Maximum frontal size\s+\(estimated\)\s*=\s*(\d+)", text)
-            flops = float(flops.group(1).replace("D", "E")) if flops else float("nan")
-            front = front.group(1) if front else "?"
+            est[name] = (float(flops.group(1).replace("D", "E")) if flops else float("nan"), front.group(1) if front else "?")
             if a.estimate_only:
-                print(f"| {trial} | {name} | {flops:.3g} | {front} | | | | | | |", flush=True)
-                continue
-            rows = []
-            for _ in range(a.runs):
+                print(f"| {trial} | {name} | {est[name][0]:.3g} | {est[name][1]} | | | | | | |", flush=True)
+        if a.estimate_only:
+            continue
+        for _ in range(a.runs):            # the candidates in turn, run after run: a change of load hits all alike
+            for name in a.candidates:
                 res, cpu, wall, stats, _ = run(name, args, kwargs, False, shape)
-                rows.append((cpu, wall))
+                rows[name].append((cpu, wall))
+                last[name] = (res, stats)
+        for name in a.candidates:
+            (flops, front), (res, stats) = est[name], last[name]
             J = objective(t, res)
             rel = abs(J - float(b["objective"])) / abs(float(b["objective"]))
             dload = float(np.abs(np.column_stack([res.medial, res.lateral, res.total]) - b["loads"]).max()) / bw
-            cpus, walls = sorted(r[0] for r in rows), sorted(r[1] for r in rows)
+            cpus, walls = sorted(r[0] for r in rows[name]), sorted(r[1] for r in rows[name])
             ok = rel <= 1e-6 and dload <= 1e-3
             print(f"| {trial} | {name} | {flops:.3g} | {front} | {stats.get('iter_count')} | "
                   f"{cpus[len(cpus) // 2]:.2f} ({cpus[0]:.2f}) | {walls[len(walls) // 2]:.2f} ({walls[0]:.2f}) | "
