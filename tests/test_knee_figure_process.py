@@ -79,3 +79,23 @@ def test_a_child_that_dies_after_submit_leaves_the_figure_to_the_parent(tmp_path
     assert fp.result() == "knee_contact.png"
     assert fp.error is not None
     assert _png_size(tmp_path / "knee_contact.png") == (800, 850)
+
+
+def test_the_first_knee_figure_after_a_warm_up_is_the_same_png_as_a_new_one(tmp_path, monkeypatch):
+    """The drawing process draws a knee figure ahead (warm_knee_figure); the real one is drawn over it and
+    must carry nothing of the made-up data (spans, curves, legend): the same bytes as on a new figure."""
+    from ocp_constraints.output import plots
+    from ocp_constraints.output.joint_plots import warm_knee_figure, write_knee_figure
+
+    monkeypatch.setattr(plots, "_WARM", {})
+    t, loads, label, _, phases = _figure_args()
+    measured = (np.linspace(-0.1, 1.1, 30), {k: np.cos(np.linspace(-0.1, 1.1, 30)) + i for i, k in enumerate(loads)})
+    args = (t, loads, label, measured, [(0.0, 0.3, "stance"), (0.3, 1.0, "swing")])
+    (tmp_path / "new").mkdir()
+    (tmp_path / "warm").mkdir()
+    write_knee_figure(tmp_path / "new", *args)
+    warm_knee_figure()
+    assert len(plots._WARM) == 1
+    write_knee_figure(tmp_path / "warm", *args)
+    assert not plots._WARM                                # the warm figure was used
+    assert (tmp_path / "warm" / "knee_contact.png").read_bytes() == (tmp_path / "new" / "knee_contact.png").read_bytes()

@@ -73,7 +73,7 @@ def cli_knee(args) -> int:
     if not args.no_plots:       # matplotlib loads in a second process while this one computes
         from ..output.drawing_process import DrawingProcess
 
-        figures = DrawingProcess()
+        figures = DrawingProcess(warm=_warm_figure)
     try:
         cutoff = None if getattr(args, "no_filter", False) else getattr(args, "cutoff", 6.0)
         run = run_knee(args.model, args.motion, args.grf, args.measured, muscle_model=args.muscle_model,
@@ -112,6 +112,13 @@ def cli_knee(args) -> int:
             print(f"  {k}: RMSE {v['rmse_bw']:.2f} BW, r {v['r']:.2f}, R^2 {v.get('r2', float('nan')):.2f}, "
                   f"peak error {v['peak_error_bw']:+.2f} BW")
     return 0
+
+
+def _warm_figure() -> None:
+    """In the drawing process: a knee figure drawn once ahead (imported there, not before the fork)."""
+    from ..output.joint_plots import warm_knee_figure
+
+    warm_knee_figure()
 
 
 def _params(items: list[str]) -> dict[str, str]:

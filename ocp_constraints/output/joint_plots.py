@@ -11,7 +11,7 @@ from pathlib import Path
 
 import numpy as np
 
-from .plots import file_name, joint_figure, new_figure, write_figures
+from .plots import _figure, file_name, joint_figure, write_figures
 
 
 def write_gait_plots(out: Path, t, joints: list[tuple[str, str | None, dict[str, np.ndarray]]],
@@ -43,7 +43,7 @@ def warm_gait_figure(dpi: int = 100) -> None:
 def knee_figure(t, predicted: dict[str, np.ndarray], label: str, measured=None, phases=()):
     """Medial, lateral and total contact force (body weights): predicted, measured (``(t, {name: values})``)
     and the gait phases shaded (``[(t0, t1, "stance" or "swing"), ...]``)."""
-    fig, axes = new_figure(8, 8.5, 3)
+    fig, axes = _figure(None, 8, 8.5, 3)      # over a figure drawn ahead (warm_knee_figure) if there is one
     colors = {"stance": "#d9e8f5", "swing": "#fbe6cf"}
     for ax, (name, y) in zip(axes, predicted.items()):
         for a, b, phase in phases:
@@ -64,6 +64,21 @@ def knee_figure(t, predicted: dict[str, np.ndarray], label: str, measured=None, 
     axes[0].set_title("knee contact forces over the gait cycle")
     axes[-1].set(xlabel="t [s]")
     return fig
+
+
+def warm_knee_figure(dpi: int = 100) -> None:
+    """Draw a knee figure (:func:`knee_figure`: spans, measured curves, legend) once over made-up data, in memory,
+    and keep it for the real one (:func:`~.plots.keep_warm`; 0.2 -> 0.13 s of CPU for the first figure): run by
+    the knee command's drawing process while the run computes."""
+    import io
+
+    from .plots import PNG_COMPRESSION, keep_warm
+
+    t = np.linspace(0.0, 1.0, 50)
+    loads = {"medial": t, "lateral": 1 - t, "total": 1 + 0 * t}
+    fig = knee_figure(t, loads, "warm", (t, loads), [(0.0, 0.6, "stance"), (0.6, 1.0, "swing")])
+    fig.savefig(io.BytesIO(), format="png", dpi=dpi, pil_kwargs={"compress_level": PNG_COMPRESSION})
+    keep_warm(fig)
 
 
 def write_knee_figure(out: Path, t, predicted: dict[str, np.ndarray], label: str, measured=None, phases=()) -> str:

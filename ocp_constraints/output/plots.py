@@ -80,12 +80,12 @@ def new_figure(width: float, height: float, rows: int = 1, height_ratios=None):
 
 
 def clear(fig) -> None:
-    """Empty a figure of :func:`new_figure` for the next one of its shape: lines, notes, legends, titles and
-    labels go; axes, ticks and grid stay. Colours start again at C0 and the limits follow the new data."""
+    """Empty a figure of :func:`new_figure` for the next one of its shape: lines, notes, shaded spans, legends,
+    titles and labels go; axes, ticks and grid stay. Colours start again at C0 and the limits follow the new data."""
     from matplotlib import rcParams
 
     for ax in fig.axes:
-        for artist in [*ax.lines, *ax.texts]:
+        for artist in [*ax.lines, *ax.texts, *ax.patches]:     # patches: e.g. the knee figure's gait phases
             artist.remove()
         if ax.get_legend() is not None:
             ax.get_legend().remove()
