@@ -161,10 +161,10 @@ def _parse_csv(path: Path) -> tuple[list[str], np.ndarray, dict[str, str], int]:
 
 
 def _parse_mat(path: Path) -> tuple[list[str], np.ndarray, dict[str, str], int]:
-    from .osim_mat import loadmat     # scipy.io's result without its import where exact; else scipy.io's
+    import scipy.io
 
     try:
-        mat = loadmat(path)
+        mat = scipy.io.loadmat(str(path), squeeze_me=True, struct_as_record=False)
     except NotImplementedError as exc:   # MATLAB v7.3 (HDF5)
         raise DataFileError(path, f"is a MATLAB v7.3 (HDF5) file, which this reader does not read ({exc}); save it "
                                   "with save(..., '-v7') or export it as .csv") from exc
