@@ -69,6 +69,44 @@ def inputs(folder: Path, trial: str) -> dict:
     return run
 
 
+QUADRICEPS = ("recfem", "vaslat", "vasmed", "vasint")
+
+
+def window_lines(trial: str, run: dict, rows: dict, hill: dict, res) -> list[str]:
+    """Stance and swing means of the loads (measured interpolated to the frames) and of the quadriceps' passive
+    fibre force, rigid Hill (``hill["hill"].passive``) and C20 (``F0 f_PE(l~M) cos(alpha)`` at its fibre lengths)."""
+    from ocp_constraints.biomech.knee_tendon_curves import passive_force_length
+
+    t = np.asarray(run["gait"].t)
+    tm, med, lat = run["measured"]
+    meas = {"medial": np.interp(t, tm, med), "lateral": np.interp(t, tm, lat)}
+    meas["total"] = meas["medial"] + meas["lateral"]
+    q = [run["muscles"].index(m) for m in QUADRICEPS]
+    F0 = np.asarray(run["args"][4], float)
+    rigid_p = hill["hill"].passive[:, q].sum(1)
+    c20_p = None
+    if not isinstance(res, Exception):
+        l = res.fibre_length[:, q]
+        sin0 = np.sin(run["tendon"]["alpha0"][q])
+        c20_p = (F0[q] * passive_force_length(l) * np.sqrt(1.0 - (sin0 / l) ** 2)).sum(1)
+    out = []
+    for phase in ("stance", "swing"):
+        keep = np.zeros(len(t), bool)
+        for a, b, kind in run["phases"]:
+            if kind == phase:
+                keep |= (t >= a) & (t <= b)
+        cells = [" / ".join(f"{meas[k][keep].mean() / run['bw']:.2f}" for k in ("medial", "lateral", "total"))]
+        for name in ("default (collocation, ideal muscles)", "rigid-tendon Hill (collocation; comparison)",
+                     "C20: compliant tendon"):
+            r = rows[name]
+            cells.append(" / ".join(f"{np.asarray(r[f'{k}_bw'])[keep].mean():.2f}" for k in ("medial", "lateral", "total"))
+                         if r["solved"] else "-")
+        cells.append(f"{rigid_p[keep].mean():.0f} / {rigid_p[keep].max():.0f}")
+        cells.append("-" if c20_p is None else f"{c20_p[keep].mean():.0f} / {c20_p[keep].max():.0f}")
+        out.append(f"| {trial} | {phase} ({keep.sum()}) | " + " | ".join(cells) + " |")
+    return out
+
+
 def c20(run: dict, **kw):
     t, Qc, R, A, F0 = run["args"]
     return solve_tendon(t, Qc, R, A, F0, **run["tendon"], reserve_weight=run["kw"].get("reserve_weight", 1.0), **kw)
@@ -139,7 +177,7 @@ def main() -> None:
     lines = ["| trial | model | medial RMSE / R^2 / peak error (BW) | lateral | total | peak reserves hip flex / add / "
              "rot / knee / ankle / subtalar (N m) | IPOPT iterations | solve wall / CPU (s) |",
              "|---|---|---|---|---|---|---|---|"]
-    checks, forces, rule, data = [], [], {"solves": True, "knee/ankle/subtalar reserves <= 10 N m": True}, {}
+    checks, forces, windows, rule, data = [], [], [], {"solves": True, "knee/ankle/subtalar reserves <= 10 N m": True}, {}
     for trial in args.trials:
         folder = J / "reducepoly_subject_GC" if trial == "ngait_og5" else args.data
         run = inputs(folder, trial)
@@ -151,7 +189,9 @@ def main() -> None:
         r = hill["result"]
         rows["rigid-tendon Hill (collocation; comparison)"] = row(run, r, r.timings["build"] + r.timings["solve"],
                                                                    float("nan"))
-        rows["C20: compliant tendon"] = r20 = row(run, *timed(c20, run))
+        res20 = timed(c20, run)
+        rows["C20: compliant tendon"] = r20 = row(run, *res20)
+        windows.extend(window_lines(trial, run, rows, hill, res20[0]))
         rule["solves"] &= r20["solved"]
         if r20["solved"]:
             rule["knee/ankle/subtalar reserves <= 10 N m"] &= max(r20["peak_reserve"][3:]) <= 10.0
@@ -183,6 +223,10 @@ def main() -> None:
             "activation defect | balance (N m or N) |\n|---|---|---|---|---|\n" + "\n".join(checks)
             + "\n\n## Peak muscle forces (N), rigid-tendon Hill -> C20, and C20's fibre length range (l_opt)\n\n| trial | "
             + " | ".join(SHOW) + " |\n|" + "---|" * (len(SHOW) + 1) + "\n" + "\n".join(forces)
+            + "\n\n## Where the load is: means over the right foot's stance and swing frames (BW), and the quadriceps' "
+            "passive fibre force (recfem + vasti, N: mean / peak over those frames)\n\n| trial | phase (frames) | measured "
+            "medial / lateral / total | default | rigid-tendon Hill | C20 | quadriceps passive, rigid Hill | "
+            "quadriceps passive, C20 |\n|---|---|---|---|---|---|---|---|\n" + "\n".join(windows)
             + "\n\n## Whole knee command with C20 on ngait_og5 (one process; wall / CPU, s)\n\n"
             + ("\n".join(f"- {w:.2f} / {c:.2f}" for w, c in times) + (f"\n- median wall {np.median([w for w, _ in times]):.2f} s"
                                                                           if times else "") if times else "- not measured")
