@@ -37,7 +37,7 @@ from ..errors import KneeError
 from ..output.signals import call_interruptibly
 from .knee_collocation import TAU_ACT, TAU_DEACT, CollocationResult, activation_rate, ode_defects
 from .knee_hill import hill_forces
-from .knee_static import KKT_OPTIONS, LOAD_SCALE, RESERVE_WEIGHT, RESERVED, solve_static
+from .knee_static import KKT_OPTIONS, LOAD_SCALE, RESERVE_WEIGHT, RESERVED, reserve_weight_rows, solve_static
 from .knee_tendon_curves import (TENDON_STRAIN, active_force_length, equilibrium_residual, fibre_state,
                                  force_velocity, passive_force_length, static_tendon_force)
 
@@ -137,8 +137,6 @@ def solve_tendon(t, Qc, R, A, F0, L_mt, V_mt, l_opt, l_slack, alpha0, passive_ro
     act_defect = ca.horzcat(dA[:, 0], dA) - H * activation_rate(e, a, tau_act, tau_deact, 0.0)
     ten_defect = ca.horzcat(dF[:, 0], dF) - H * RATE_SCALE * u
     weights = np.zeros((nx, N))
-    from .knee_static import reserve_weight_rows
-
     weights[:iF], weights[ir:] = 0.5 * w, reserve_weight_rows(reserve_weight, N) * w
     rhs = (np.asarray(Qc, float) / LOAD_SCALE).ravel()
     nlp = {"x": X, "f": ca.dot(ca.DM(weights.ravel(order="F")), X * X),
