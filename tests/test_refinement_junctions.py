@@ -1,6 +1,6 @@
 """Junctions (a bound or path constraint becoming active or inactive: the multipliers kink) in mesh refinement
-(ocp/switch_detection.py, issue 19), checked against closed forms: synthetic slacks whose junction is known by
-construction, and a block pushed with minimum effort under a speed limit whose optimum is known in closed form."""
+(ocp/switch_detection.py, issue 19), checked against a closed form: a block pushed with minimum effort under a
+speed limit (a tangential junction of a path constraint of the states; the rail's load kinks there)."""
 from __future__ import annotations
 
 import math
@@ -12,7 +12,6 @@ from ocp_constraints import Model, OptimalControlProblem, joints
 from ocp_constraints.ocp.error_estimate import compare, names, sample_grid, values_at
 from ocp_constraints.ocp.mesh_refinement import solve_to_tolerance
 from ocp_constraints.ocp.schemes import Radau
-from ocp_constraints.ocp.switch_detection import Switch, activity, locate, split_points
 
 # Block of 1 kg on a rail along E1, gravity along -E2, pushed by F (E1) and F (E2): rest to rest over D = 1 m
 # in T = 2 s, minimum integral F^2, speed <= VMAX. Closed form (the unbounded optimum peaks at 1.5 D / T):
@@ -64,45 +63,12 @@ def _true_errors(sol) -> dict:
                    names(sol)).totals
 
 
-def test_a_tangential_junction_is_located_where_the_square_root_of_the_slack_reaches_the_bound():
-    # Slack A (t1 - t)^2 / 2 before t1 = 0.6, at the bound after: a line through the slack itself would put
-    # the junction early; its square root is linear, and the fit chosen by the smaller misfit finds t1.
-    t = np.linspace(0.0, 1.0, 41)
-    v = np.where(t < 0.6, 1.0 - 3.0 * (0.6 - t) ** 2, 1.0)
-    s, eps = activity(v, -np.inf, 1.0)
-    [(at, kind, _, _)] = locate(t, v, s, -np.inf, 1.0, eps, jumps=False)
-    assert kind == "junction" and math.isclose(at, 0.6, abs_tol=1e-9)
-
-
-def test_a_junction_among_loosely_active_points_is_located_from_the_clearly_free_ones():
-    # At the bound 0 up to 0.5 (held to 1e-9), then leaving it linearly, slope -100: the first points after
-    # 0.5 lie within the activity threshold (2e-3 of the span 50 = 0.1) but off the bound. The junction is
-    # 0.5, not after the last of them (0.5 + 0.1 / 100 at the least).
-    t = np.linspace(0.0, 1.0, 2001)
-    v = np.where(t <= 0.5, -1e-9, -100.0 * (t - 0.5))
-    s, eps = activity(v, -np.inf, 0.0)
-    assert s[np.searchsorted(t, 0.5005)] == 1           # loosely active
-    [(at, kind, _, _)] = locate(t, v, s, -np.inf, 0.0, eps, jumps=False)
-    assert kind == "junction" and math.isclose(at, 0.5, abs_tol=1e-6)
-
-
-def test_a_junction_splits_its_interval_only_where_the_companion_locates_it_too_and_at_the_companions_place():
-    mesh = np.array([0.0, 0.5, 1.0])
-    mine = Switch(0.30, 0, True, "cone", "junction", (0.29, 0.31))
-    near = Switch(0.31, 0, True, "cone", "junction", (0.30, 0.32))
-    far = Switch(0.40, 0, True, "cone", "junction", (0.39, 0.41))
-    other = Switch(0.30, 0, True, "another", "junction", (0.29, 0.31))
-    ratio = np.array([10.0, 10.0])
-    assert split_points([mine], mesh, 1e-6, 1e-3, ratio, [far, other]) == {}
-    assert split_points([mine], mesh, 1e-6, 1e-3, ratio, [near]) == {0: [0.31]}
-    assert split_points([mine], mesh, 1e-6, 1e-3, np.array([0.5, 0.5]), [near]) == {}
-
-
 def test_refinement_at_a_speed_limit_keeps_its_estimate_above_the_closed_form_error():
-    """A mesh point put at a junction located 2e-3 of the horizon off made the NLP hold the kink there, the
-    companion too: true multiplier error 9.4e-4 against an estimate of 8e-4. Now a junction splits only where
-    such a shift would cost at most half the tolerance: whatever the outcome, the estimate bounds the true
-    error of states and multipliers, within 10x."""
+    """Whatever the outcome (junctions do not split: SPLIT_JUNCTIONS off; the estimate stalls near 3.7e-3 for the
+    multipliers, a kink inside an interval converging at first order), the estimate bounds the true error of
+    the states and multipliers, within 10x. A mesh point put at a junction located 2e-3 of the horizon late
+    (an experiment, 3735442) made the NLP hold the kink there, the companion too: true multiplier error 9.4e-4
+    against an estimate of 8e-4; this test would catch that."""
     sol = solve_to_tolerance(_block(), 1e-4, Radau(5, degree=3), max_refinements=6)
     est, true = sol.mesh_refinement["estimate"], _true_errors(sol)
     for q in ("states", "multipliers"):

@@ -321,8 +321,8 @@ def solve_to_tolerance(problem, tolerance, method=None, ipopt_options: dict | No
             raise
         total += t_sol + t_comp
         total_cpu += c_sol + c_comp
-        found, seen = detect_switches(sol), detect_switches(companion)   # the companion's confirm junctions
-        windows = jump_windows(found + seen, scheme.mesh_fractions)
+        found = detect_switches(sol)        # bounds switching: jumps left out of the multipliers' estimate
+        windows = jump_windows(found + detect_switches(companion), scheme.mesh_fractions)
         est = estimate_error(sol, companion, windows=windows, switches=found)
         if judge is None:
             entry.update(companion_iterations=companion.iterations, companion_time_s=t_comp, companion_cpu_s=c_comp)
@@ -345,7 +345,7 @@ def solve_to_tolerance(problem, tolerance, method=None, ipopt_options: dict | No
         # Switches inside intervals (switch_detection): there the estimate is no bound; split at them.
         met = all(est.totals[q] <= tol for q in GATED)
         smoothness = legendre_decay(sol)    # Legendre decay and last term per interval: read three times below
-        switches = split_points(found, scheme.mesh_fractions, MIN_INTERVAL, tol, ratio, seen, sol, est.load_scale) or (
+        switches = split_points(found, scheme.mesh_fractions, MIN_INTERVAL, tol, ratio) or (
             _nonsmooth_splits(sol, tol, smoothness, windows) if met and r < max_refinements else {})
         entry["switches"] = [f for k in sorted(switches) for f in switches[k]]
         if met and not switches:

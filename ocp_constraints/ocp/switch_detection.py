@@ -48,16 +48,11 @@ ARC = 10.0
 TIGHT = 1e-5
 # Fraction of the horizon below which an interval is not split at a junction (split_points).
 JUNCTION_MIN = 1e-3
-# Whether junctions (kinks) split intervals too, once confirmed (JUNCTION_AGREE). Unconfirmed, they did
-# not pay: the walker at 1e-4 took 14 solves to 617 points, 136 s CPU (11 solves to 323 points, 69 s
-# without), the rolling-disk drive at 1e-4 ended in IPOPT's Restoration_Failed on 51 intervals, the
-# four-bar was still at 3.2e-4 (states) and 1.4e-3 (multipliers) after 3 refinements, 256 intervals.
-SPLIT_JUNCTIONS = True
-# A junction of the solution splits its interval only where the companion locates one of the same
-# quantity within this fraction of the interval's length: then the kink is where both resolutions put it,
-# and the cut is at the companion's (the finer) location. Cart-pole at 1e-3 (hinge force bound), solution
-# / companion: 0.34754 / 0.34616 on 40 intervals (0.055 of one), 0.34682 / 0.34675 on 167 (0.011).
-JUNCTION_AGREE = 0.1
+# Whether junctions (kinks) split intervals too. Measured, they do not pay yet: the walker at 1e-4 took
+# 14 solves to 617 points, 136 s CPU (11 solves to 323 points, 69 s without), the rolling-disk drive at
+# 1e-4 ended in IPOPT's Restoration_Failed on 51 intervals, the four-bar was still at 3.2e-4 (states) and
+# 1.4e-3 (multipliers) after 3 refinements, 256 intervals, 145 s CPU; jumps do pay (split_points).
+SPLIT_JUNCTIONS = False
 # A junction closer than this fraction of its interval to one of the interval's ends is at that mesh point.
 JUNCTION_NEAR = 0.05
 # Switches of several quantities closer than this fraction of their interval are one switch.
@@ -72,8 +67,7 @@ class Switch:
     lies in; ``inside``: False where it sits at the interval's start (the mesh point); ``quantity``: the
     bound's or path constraint's name; ``kind``: ``"bang-bang"`` or ``"junction"``; ``bracket``: the
     two points around it whose activity differs (fractions); ``effect``: how far the speeds (m/s, rad/s;
-    the NLP's) are from those of a clean switch at ``fraction``, over the bracket (:func:`_effect`; 0 for a
-    junction, whose accelerations do not jump): the
+    the NLP's) are from those of a clean switch at ``fraction``, over the bracket (:func:`_effect`): the
     NLP smears a jump over the points of its bracket (their bounds held loosely), and a jump that is no
     mesh point sits at the nearest one."""
 
@@ -118,49 +112,16 @@ def activity(values: np.ndarray, lower: float, upper: float) -> tuple[np.ndarray
     return np.where(values <= lower + eps, -1, np.where(values >= upper - eps, 1, 0)), eps
 
 
-def _junction(t: np.ndarray, v: np.ndarray, bound: float, active: int, free: list[int], reach: float = 0.0) -> float:
-    """Where the free points ``free`` (nearest first) say the slack reaches ``bound``, kept between the
-    active point ``active`` (the last one holding the bound tightly, :func:`_held`) and the nearest free
-    point (their midpoint if the points do not help).
-
-    The slack leaves its bound linearly where the constraint is crossed at an angle (a mixed constraint:
-    the cart-pole's hinge force), quadratically where it is touched tangentially (a bound on a speed
-    whose acceleration is continuous: a block's speed limit under a minimum-effort push, slack
-    ``A (t - t1)^2 / 2``): a line through the slack, or through its square root, fitted (least squares)
-    through the free points within ``reach`` of the bound (at least the three nearest), whichever fits
-    better. A line through the slack of a tangential junction put it 0.015 of the horizon early (the
-    block's, from points within the activity threshold); two neighbours on a short interval next to
-    the junction, each off by the NLP's noise, give no slope (newcomer wheel's friction cone at 1e-5:
-    noise 0.01 on points 2e-5 of the horizon apart, a slope of 240 per horizon)."""
+def _junction(t: np.ndarray, v: np.ndarray, bound: float, active: int, free: list[int]) -> float:
+    """Where the line through the free points ``free`` (nearest first) reaches ``bound``, kept between
+    the active point ``active`` and the nearest free point (their midpoint if the line does not help)."""
     lo, hi = sorted((t[active], t[free[0]]))
-    near = [k for k in free if abs(v[k] - bound) <= reach]
-    fit = near if len(near) >= 3 else free[:3]
-    best, at = np.inf, np.nan
-    for power in (1.0, 0.5):        # slack ~ |t - t_j|, or ~ (t - t_j)^2
-        y = np.abs(v[fit] - bound) ** power
-        if len(fit) < 2 or np.ptp(y) == 0 or np.ptp(t[fit]) == 0:
-            break
-        (slope, offset), res = np.polyfit(t[fit], y, 1, full=True)[:2]
-        misfit = float(np.sqrt(res[0] / len(fit))) / np.ptp(y) if len(res) else 0.0
-        if slope != 0 and misfit < best - 1e-9:
-            best, at = misfit, -offset / slope
-    if np.isfinite(at):
-        return float(min(max(at, lo), hi))
+    if len(free) >= 2 and v[free[1]] != v[free[0]]:
+        slope = (v[free[1]] - v[free[0]]) / (t[free[1]] - t[free[0]])
+        at = t[free[0]] + (bound - v[free[0]]) / slope
+        if np.isfinite(at):
+            return float(min(max(at, lo), hi))
     return 0.5 * (lo + hi)
-
-
-def _held(v: np.ndarray, s: np.ndarray, i: int, step: int, tight: float, bound: float) -> int:
-    """From the active point ``i``, the nearest point in direction ``step`` (``i`` itself included) that
-    holds the bound tightly (within ``tight``), at the same bound; ``i`` if there is none. The points
-    between are the slack's departure, within the activity threshold but off the bound (newcomer wheel:
-    its friction cone's slack 0.22 at 0.1137 of the horizon, active by the threshold 0.24, where the
-    arc left the bound at 0.1128): a junction may lie among them."""
-    k = i
-    while 0 <= k < len(v) and s[k] == s[i]:
-        if abs(v[k] - bound) <= tight:
-            return k
-        k += step
-    return i
 
 
 def _crossing(t: np.ndarray, v: np.ndarray, level: float, i: int, j: int) -> float:
@@ -203,17 +164,11 @@ def locate(t: np.ndarray, v: np.ndarray, s: np.ndarray, lower: float, upper: flo
         if jumps and left is not None and right is not None and s[left] == -s[right]:
             found.append((_crossing(t, v, 0.5 * (lower + upper), left, right), "bang-bang", left, right))
         elif np.abs(v[i : j + 1] - (lower if s[left if left is not None else right] < 0 else upper)).max() > ARC * eps:
-            run, tight = list(range(i, j + 1)), eps * TIGHT / ACTIVE
+            run = list(range(i, j + 1))
             if left is not None:
-                bound = lower if s[left] < 0 else upper
-                a = _held(v, s, left, -1, tight, bound)
-                at = _junction(t, v, bound, a, run, ARC * eps)
-                found.append((at, "junction", max(k for k in range(a, left + 1) if t[k] <= at or k == a), i))
+                found.append((_junction(t, v, lower if s[left] < 0 else upper, left, run), "junction", left, i))
             if right is not None:
-                bound = lower if s[right] < 0 else upper
-                b = _held(v, s, right, 1, tight, bound)
-                at = _junction(t, v, bound, b, run[::-1], ARC * eps)
-                found.append((at, "junction", j, min(k for k in range(right, b + 1) if t[k] >= at or k == b)))
+                found.append((_junction(t, v, lower if s[right] < 0 else upper, right, run[::-1]), "junction", j, right))
         i = j + 1
     return found
 
@@ -235,7 +190,7 @@ def _effect(t: np.ndarray, D: np.ndarray, at: float, mesh: np.ndarray, T: float)
     the largest ``|integral (u' - u'_clean) dt|`` from its first point ``t[0]`` (trapezoids on the points),
     ``u'_clean`` the accelerations of the bracket's ends before and after ``at``; and, if ``at`` is no
     mesh point, the jump of the accelerations times its distance from the nearest one (where a clean
-    jump at that mesh point would put it). For jumps only (:func:`detect_switches`)."""
+    jump at that mesh point would put it)."""
     clean = np.where(t[None, :] < at, D[:, :1], D[:, -1:])
     drift = np.concatenate([np.zeros((D.shape[0], 1)),
                             np.cumsum(0.5 * (np.diff(t) * (D - clean)[:, 1:] + np.diff(t) * (D - clean)[:, :-1]), axis=1)], axis=1)
@@ -266,11 +221,7 @@ def detect_switches(solution) -> list[Switch]:
                 tight = eps * TIGHT / ACTIVE
                 i, j = _loose(v[idx], s[idx], i, -1, tight, lo, hi), _loose(v[idx], s[idx], j, 1, tight, lo, hi)
             pi, pj = idx[i], idx[j]
-            # A junction's accelerations do not jump (their slope kinks): nothing is smeared, and the
-            # "clean switch" of a bracket's ends would be their change over it (newcomer wheel at 1e-3:
-            # 5e-3 rad/s on every mesh, from a bracket of 0.018 of the horizon across the mesh point put at it).
-            effect = (_effect(frac[pi : pj + 1] * T, D[:, pi : pj + 1], at * T, mesh, T)
-                      if D.size and kind == "bang-bang" else 0.0)
+            effect = _effect(frac[pi : pj + 1] * T, D[:, pi : pj + 1], at * T, mesh, T) if D.size else 0.0
             out.append(Switch(float(at), k, bool(inside), name, kind, (float(frac[pi]), float(frac[pj])), effect))
     return sorted(out, key=lambda w: w.fraction)
 
@@ -303,36 +254,8 @@ def jump_windows(switches: list[Switch], mesh: np.ndarray) -> list[tuple[float, 
     return out
 
 
-def mislocation(solution, w: Switch, at: float, load_scale: float) -> float:
-    """The multipliers' error (relative to ``load_scale``) of a mesh point put at ``at`` (fraction) for
-    junction ``w`` if the junction is really at ``w.fraction``: the NLP then holds the kink at the mesh
-    point (both sides smooth there, the companion too: their difference does not see the shift; a block's
-    speed limit cut 2e-3 of the horizon late, true multiplier error 9.4e-4 against an estimate of 8e-4),
-    so the error is the shift times the jump of the multipliers' slope, read from the solution a quarter
-    and half of the shift's bracket width on either side of the junction."""
-    from .error_estimate import values_at
-
-    T = float(solution.t_final)
-    h = max(abs(w.bracket[1] - w.bracket[0]), abs(at - w.fraction), 1e-9)
-    f = np.clip(w.fraction + h * np.array([-1.0, -0.5, 0.5, 1.0]), 0.0, 1.0)
-    lam = values_at(solution, f)["multipliers"]
-    if not lam.size:
-        return 0.0
-    kink = np.abs((lam[:, 3] - lam[:, 2]) / (f[3] - f[2]) - (lam[:, 1] - lam[:, 0]) / (f[1] - f[0])).max() / T
-    return float(kink * abs(at - w.fraction) * T / max(load_scale, 1e-12))
-
-
-def _confirmed(w: Switch, others: list[Switch], width: float) -> float | None:
-    """The companion's location of junction ``w`` (a junction of ``others`` of the same quantity within
-    :data:`JUNCTION_AGREE` of ``width``, the nearest), or None where the companion does not confirm it."""
-    near = [o.fraction for o in others if o.kind == "junction" and o.quantity == w.quantity
-            and abs(o.fraction - w.fraction) <= JUNCTION_AGREE * width]
-    return min(near, key=lambda f: abs(f - w.fraction)) if near else None
-
-
 def split_points(switches: list[Switch], mesh: np.ndarray, min_piece: float, tolerance: float,
-                 ratio: np.ndarray, confirm: list[Switch] | None = None, solution=None,
-                 load_scale: float = 1.0) -> dict[int, list[float]]:
+                 ratio: np.ndarray) -> dict[int, list[float]]:
     """Per interval, the fractions to split it at: the switches inside it that matter, those of several
     quantities within :data:`MERGE` of the interval's length merged into one (their mean), none that
     would leave a piece shorter than ``min_piece`` (a fraction of the horizon).
@@ -352,18 +275,11 @@ def split_points(switches: list[Switch], mesh: np.ndarray, min_piece: float, tol
     by_interval: dict[int, list[float]] = {}
     for w in switches:
         a, b = mesh[w.interval], mesh[w.interval + 1]
-        at = w.fraction
-        if w.kind == "bang-bang":
-            matters = w.effect > 0.5 * tolerance
-        else:
-            at = _confirmed(w, confirm or [], b - a) if SPLIT_JUNCTIONS else None
-            # Only where a mesh point there errs by at most half the tolerance if the solution's junction
-            # is the right one and the companion's is not (mislocation); else the mesh narrows it first.
-            matters = (at is not None and ratio[w.interval] > 1.0 and b - a > JUNCTION_MIN
-                       and (solution is None or mislocation(solution, w, at, load_scale) <= 0.5 * tolerance)
-                       and min(at - a, b - at) > JUNCTION_NEAR * (b - a))
+        matters = (w.effect > 0.5 * tolerance if w.kind == "bang-bang"
+                   else SPLIT_JUNCTIONS and ratio[w.interval] > 1.0 and b - a > JUNCTION_MIN
+                   and min(w.fraction - a, b - w.fraction) > JUNCTION_NEAR * (b - a))
         if w.inside and matters:
-            by_interval.setdefault(w.interval, []).append(at)
+            by_interval.setdefault(w.interval, []).append(w.fraction)
     out = {}
     for k, points in by_interval.items():
         a, b = float(mesh[k]), float(mesh[k + 1])
