@@ -35,7 +35,7 @@ def _number(pattern: str, text: str) -> float:
 
 CHECKED = {"whirling_by_hand.py", "swing_up.py", "cart_pole_by_hand.py", "export_to_c.py",   # the tests below
            "wheel_on_slope.py", "spherical_pendulum.py",
-           "robot_arm_urdf.py"}                                   # tests/test_urdf.py (against Pinocchio)
+           "robot_arm_urdf.py", "bryson_denham.py"}                                   # tests/test_urdf.py (against Pinocchio)
 UNCHECKED = sorted(p.name for p in EXAMPLES.glob("*.py") if p.name not in CHECKED)
 
 
@@ -283,3 +283,31 @@ def test_spherical_pendulum_example_matches_minimal_coordinates_and_newton_at_th
     X, W = ref["X"], ref["W"]
     peak = max(float(force(X[:3, i + 1], X[3:, i + 1], ref["f"](X[:, i + 1], W[:, i])[2])) for i in range(W.shape[1]))
     assert _number(r"largest ([-\d.e+]+) N", out) == pytest.approx(peak, rel=3e-3)
+
+
+def _bryson_denham(t: np.ndarray, wall: float = 1 / 9) -> tuple[np.ndarray, np.ndarray]:
+    """Bryson and Ho's closed form for wall <= 1/6: off the wall for ``s = min(t, 1 - t) < 3 wall``,
+    ``x = wall (1 - (1 - s / (3 wall))^3)``, ``|v| = (1 - s / (3 wall))^2``; on it ``x = wall``, ``v = 0``;
+    the least integral of u^2 is ``4 / (9 wall) * 2`` (u = -2/(3 wall) (1 - s / (3 wall)) off the wall)."""
+    s = np.minimum(t, 1 - t)
+    off = s < 3 * wall
+    x = np.where(off, wall * (1 - (1 - s / (3 * wall)) ** 3), wall)
+    v = np.where(off, (1 - s / (3 * wall)) ** 2, 0.0) * np.where(t <= 0.5, 1.0, -1.0)
+    return x, v
+
+
+def test_bryson_denham_example_meets_its_tolerance_against_the_closed_form():
+    """The state-constrained textbook problem (an arc on the wall x = 1/9, junctions at t = 1/3 and 2/3
+    where the push kinks) solved to 1e-4: met, its objective within 1e-4 of the closed form's 8, its states
+    at the printed times within the estimate of the closed form, and the rail carrying the weight."""
+    out = _run("bryson_denham.py")
+    assert "estimated error at most 0.0001" in out
+    assert _number(r"objective ([-\d.e+]+)", out) == pytest.approx(8.0, rel=1e-4)
+    estimate = _number(r"estimated error: states ([-\d.e+]+)", out)
+    assert estimate <= 1e-4
+    t = np.array([float(v) for v in re.search(r"^t: (.*)$", out, re.M).group(1).split()])
+    x = np.array([float(v) for v in re.search(r"^x: (.*)$", out, re.M).group(1).split()])
+    v = np.array([float(v) for v in re.search(r"^v: (.*)$", out, re.M).group(1).split()])
+    x_ref, v_ref = _bryson_denham(t)
+    assert max(np.abs(x - x_ref).max(), np.abs(v - v_ref).max()) <= estimate
+    assert _number(r"largest rail force ([-\d.e+]+) N", out) == pytest.approx(9.81, rel=1e-9)
