@@ -74,14 +74,12 @@ MIN_INTERVAL = 1e-6     # fraction of the horizon below which an interval is not
 ROUGH_MIN = 1e-3        # fraction of the horizon below which a rough interval is not halved (refine)
 GATED = ("states", "multipliers")
 START = {"intervals": 10, "degree": 3}
-# A warm-started solve begins near its optimum: a small first barrier parameter saves IPOPT the
-# iterations of driving the default 0.1 down (swing-up Radau 7 N = 20 from Radau 5 N = 10: 6 -> 4
-# iterations; rolling-disk drive Radau 5 N = 20 from Radau 3 N = 10: 31 -> 17 with 1e-6). 1e-8 against
-# 1e-6 (python scripts/mesh_refinement_warm_mu.py --suite): the same meshes and estimates to 4 digits;
-# IPOPT iterations of the whole refinement, acrobot 219 -> 205 and 205 -> 192 at 1e-4 / 1e-6, cart double
-# pendulum 94 -> 82 at both, swing-up one fewer on its last solve; the switching cases (bench
-# --switching-only) met on the same meshes.
-WARM_IPOPT = {"ipopt.mu_init": 1e-8}
+# A warm start begins near its optimum. mu_init 1e-8 spares IPOPT driving the barrier down from 0.1 (swing-up 6 -> 4
+# iterations; acrobot 219 -> 205 over a refinement; same meshes: python scripts/mesh_refinement_warm_mu.py --suite).
+# bound_push / bound_frac 1e-9 (IPOPT: 1e-2) keep the start on its bounds: along an arc on a state bound the
+# default moved every point 0.01 off it (Bryson-Denham, examples/bryson_denham.py: 57-72 iterations per warm solve,
+# 1e-5 not met in 400 s of CPU; now 9-14, met in 9.7 s); swing-up and switching cases (bench) unchanged.
+WARM_IPOPT = {"ipopt.mu_init": 1e-8, "ipopt.bound_push": 1e-9, "ipopt.bound_frac": 1e-9}
 AT_HAND = 3              # solutions kept as possible judges of later meshes
 
 
