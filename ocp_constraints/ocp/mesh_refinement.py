@@ -76,10 +76,12 @@ GATED = ("states", "multipliers")
 START = {"intervals": 10, "degree": 3}
 # A warm start begins near its optimum. mu_init 1e-8 spares IPOPT driving the barrier down from 0.1 (swing-up 6 -> 4
 # iterations; acrobot 219 -> 205 over a refinement; same meshes: python scripts/mesh_refinement_warm_mu.py --suite).
-# bound_push / bound_frac 1e-9 (IPOPT: 1e-2) keep the start on its bounds: along an arc on a state bound the
-# default moved every point 0.01 off it (Bryson-Denham, examples/bryson_denham.py: 57-72 iterations per warm solve,
-# 1e-5 not met in 400 s of CPU; now 9-14, met in 9.7 s); swing-up and switching cases (bench) unchanged.
-WARM_IPOPT = {"ipopt.mu_init": 1e-8, "ipopt.bound_push": 1e-9, "ipopt.bound_frac": 1e-9}
+# bound_push / bound_frac 1e-9 (IPOPT: 1e-2) keep the start on its variables' bounds: along an arc on a state bound
+# the default moved every point 0.01 off it (Bryson-Denham, examples/bryson_denham.py: 57-72 iterations per warm
+# solve, 1e-5 not met in 400 s of CPU; now 9-14, met in 9.7 s). Path constraints' slacks keep IPOPT's 1e-2: at
+# 1e-9 the wheel's friction cone took 104 IPOPT iterations for 60 (refinement_robustness.py --only newcomer:wheel).
+WARM_IPOPT = {"ipopt.mu_init": 1e-8, "ipopt.bound_push": 1e-9, "ipopt.bound_frac": 1e-9,
+              "ipopt.slack_bound_push": 1e-2, "ipopt.slack_bound_frac": 1e-2}
 AT_HAND = 3              # solutions kept as possible judges of later meshes
 
 
