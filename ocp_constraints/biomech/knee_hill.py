@@ -64,6 +64,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
+import casadi as ca
 import numpy as np
 
 B1 = np.array([0.815, 0.433, 0.1])
@@ -75,10 +76,20 @@ D1, D2, D3, D4 = -0.318, -8.149, -0.374, 0.886
 VMAX_PER_LOPT = 10.0          # v_max = 10 l_opt / s
 
 
+def _math(x):
+    """CasADi for a CasADi value (the curves in an NLP, :mod:`.knee_tendon_curves`), else NumPy."""
+    return ca if isinstance(x, (ca.SX, ca.MX, ca.DM)) else np
+
+
 def active_force_length(l):
-    """De Groote et al. (2016) active force-length curve (normalised fibre length ``l``)."""
-    l = np.asarray(l, float)[..., None]
-    return np.sum(B1 * np.exp(-0.5 * (l - B2) ** 2 / (B3 + B4 * l) ** 2), axis=-1)
+    """De Groote et al. (2016) active force-length curve (normalised fibre length ``l``; numbers, arrays or
+    CasADi values): a sum of three Gaussians."""
+    m = _math(l)
+    l = l if m is ca else np.asarray(l, float)
+    out = 0
+    for b1, b2, b3, b4 in zip(B1, B2, B3, B4):
+        out = out + b1 * m.exp(-0.5 * (l - b2) ** 2 / (b3 + b4 * l) ** 2)
+    return out
 
 
 def passive_force_length(l):
@@ -88,9 +99,11 @@ def passive_force_length(l):
 
 
 def force_velocity(v):
-    """De Groote et al. (2016) force-velocity curve (``v = v_M / v_max``, lengthening positive)."""
-    x = D2 * np.asarray(v, float) + D3
-    return D1 * np.log(x + np.sqrt(x * x + 1.0)) + D4
+    """De Groote et al. (2016) force-velocity curve (``v = v_M / v_max``, lengthening positive; numbers, arrays
+    or CasADi values)."""
+    m = _math(v)
+    x = D2 * (v if m is ca else np.asarray(v, float)) + D3
+    return D1 * m.log(x + m.sqrt(x * x + 1.0)) + D4
 
 
 def scale_lengths(L_ref, l_opt, l_slack, alpha0):

@@ -25,7 +25,7 @@ import math
 import casadi as ca
 import numpy as np
 
-from .knee_hill import B1, B2, B3, B4, D1, D2, D3, D4, E0, KPE, VMAX_PER_LOPT
+from .knee_hill import E0, KPE, VMAX_PER_LOPT, active_force_length, force_velocity  # noqa: F401 (used here and re-exported)
 
 C1, C2, C3 = 0.2, 0.995, 0.25          # tendon curve, De Groote et al. 2016 (S1)
 TENDON_STRAIN = 0.049                  # strain at F0: Moco's DeGrooteFregly2016Muscle default
@@ -72,24 +72,10 @@ def tendon_compliance(FT, strain: float = TENDON_STRAIN):
     return 1.0 / (tendon_stiffness(strain) * (FT + C3))
 
 
-def active_force_length(l):
-    """De Groote et al. 2016 active force-length curve at normalized fibre length ``l`` (sum of three Gaussians)."""
-    out = 0
-    for b1, b2, b3, b4 in zip(B1, B2, B3, B4):
-        out = out + b1 * _exp(-0.5 * (l - b2) ** 2 / (b3 + b4 * l) ** 2)
-    return out
-
-
 def passive_force_length(l):
     """De Groote et al. 2016 passive curve, zero below ``l = 1`` through a smooth maximum (width :data:`SMOOTH`)."""
     raw = (_exp(KPE * (l - 1.0) / E0) - 1.0) / (math.exp(KPE) - 1.0)
     return 0.5 * (raw + _sqrt(raw * raw + SMOOTH * SMOOTH))
-
-
-def force_velocity(v):
-    """De Groote et al. 2016 force-velocity curve (``v = v_M / v_max``, lengthening positive)."""
-    x = D2 * v + D3
-    return D1 * _log(x + _sqrt(x * x + 1.0)) + D4
 
 
 def fibre_state(FT, dFT, L_mt, V_mt, l_opt, l_slack, alpha0, strain: float = TENDON_STRAIN):
