@@ -28,16 +28,12 @@ def write_gait_plots(out: Path, t, joints: list[tuple[str, str | None, dict[str,
 def warm_gait_figure(dpi: int = 100) -> None:
     """Draw a gait joint figure (four panels, :func:`write_gait_plots`) once over made-up data, in memory, and
     keep it for the first real one (:func:`~.plots.keep_warm`): run by a drawing process while it waits."""
-    import io
-
-    from .plots import PNG_COMPRESSION, keep_warm
+    from .plots import draw_ahead
 
     t = np.linspace(0.0, 1.0, 50)
     loads = {f"warm.{k}_{a}": np.sin((i + 1) * t) for i, (k, a) in enumerate((k, a) for k in "FM" for a in "xyz")}
     loads["warm.power"] = t
-    fig = joint_figure(t, loads, "warm", ("generalized force [N m or N]", {"q": t, "r": -t}), title="warm")
-    fig.savefig(io.BytesIO(), format="png", dpi=dpi, pil_kwargs={"compress_level": PNG_COMPRESSION})
-    keep_warm(fig)
+    draw_ahead(joint_figure(t, loads, "warm", ("generalized force [N m or N]", {"q": t, "r": -t}), title="warm"), dpi)
 
 
 def knee_figure(t, predicted: dict[str, np.ndarray], label: str, measured=None, phases=()):
@@ -70,15 +66,11 @@ def warm_knee_figure(dpi: int = 100) -> None:
     """Draw a knee figure (:func:`knee_figure`: spans, measured curves, legend) once over made-up data, in memory,
     and keep it for the real one (:func:`~.plots.keep_warm`; 0.2 -> 0.13 s of CPU for the first figure): run by
     the knee command's drawing process while the run computes."""
-    import io
-
-    from .plots import PNG_COMPRESSION, keep_warm
+    from .plots import draw_ahead
 
     t = np.linspace(0.0, 1.0, 50)
     loads = {"medial": t, "lateral": 1 - t, "total": 1 + 0 * t}
-    fig = knee_figure(t, loads, "warm", (t, loads), [(0.0, 0.6, "stance"), (0.6, 1.0, "swing")])
-    fig.savefig(io.BytesIO(), format="png", dpi=dpi, pil_kwargs={"compress_level": PNG_COMPRESSION})
-    keep_warm(fig)
+    draw_ahead(knee_figure(t, loads, "warm", (t, loads), [(0.0, 0.6, "stance"), (0.6, 1.0, "swing")]), dpi)
 
 
 def write_knee_figure(out: Path, t, predicted: dict[str, np.ndarray], label: str, measured=None, phases=()) -> str:

@@ -111,6 +111,14 @@ def keep_warm(fig) -> None:
     _WARM[(width, height, len(fig.axes))] = fig
 
 
+def draw_ahead(fig, dpi: int = 100) -> None:
+    """Draw ``fig`` once as PNG in memory and keep it for the next figure of its shape (:func:`keep_warm`)."""
+    import io
+
+    fig.savefig(io.BytesIO(), format="png", dpi=dpi, pil_kwargs={"compress_level": PNG_COMPRESSION})
+    keep_warm(fig)
+
+
 def _figure(fig, width: float, height: float, rows: int):
     """``fig`` emptied for reuse when it has this size and number of equal panels, else a new figure."""
     if fig is None:
