@@ -235,3 +235,23 @@ def test_check_singularity_accepts_regular_configurations():
     with pytest.raises(SingularConfigurationError) as info:
         EulerSequence("321").check_singularity([0.3, math.pi / 2 - 1e-7, -0.2], "body 'rod'")
     assert "rod" in str(info.value) and "theta" in str(info.value)
+
+
+def test_quaternion_from_rotation_of_a_stack_matches_scipy_matrix_by_matrix():
+    """The stacked form (a robot's guess converts thousands of matrices at once) against SciPy's
+    conversion, one sign convention (qw >= 0), on random rotations and the half turns where Shepperd's
+    method takes each of its four branches."""
+    from ocp_constraints.mechanics.rotations import quaternion_from_rotation
+
+    R = np.concatenate([SciRotation.random(500, random_state=3).as_matrix(),
+                        [np.eye(3), np.diag([1.0, -1, -1]), np.diag([-1.0, 1, -1]), np.diag([-1.0, -1, 1])]])
+    xyzw = SciRotation.from_matrix(R).as_quat()
+    expected = np.column_stack([xyzw[:, 3], xyzw[:, :3]])
+    expected *= np.where(expected[:, :1] < 0, -1.0, 1.0)
+    stacked = quaternion_from_rotation(R)
+    assert stacked.shape == (len(R), 4)
+    # At a half turn (qw = 0) the sign is a convention: compare up to it there.
+    same = np.minimum(np.abs(stacked - expected).max(axis=1), np.abs(stacked + expected).max(axis=1))
+    assert same.max() < 1e-14
+    one_by_one = np.array([quaternion_from_rotation(r) for r in R])
+    assert np.array_equal(stacked, one_by_one)

@@ -206,25 +206,28 @@ class UnitQuaternion:
 
 
 def quaternion_from_rotation(R: np.ndarray) -> np.ndarray:
-    """Unit quaternion ``(qw, qx, qy, qz)`` of a rotation matrix (Shepperd's method)."""
+    """Unit quaternion ``(qw, qx, qy, qz)`` of a rotation matrix (Shepperd's method), ``qw >= 0``; a stack
+    ``(..., 3, 3)`` of matrices gives ``(..., 4)`` at once (a robot's guess converts thousands of them)."""
     R = np.asarray(R, dtype=float)
-    tr = np.trace(R)
-    candidates = [tr, R[0, 0], R[1, 1], R[2, 2]]
-    k = int(np.argmax(candidates))
-    if k == 0:
-        w = 0.5 * np.sqrt(1 + tr)
-        q = [w, (R[2, 1] - R[1, 2]) / (4 * w), (R[0, 2] - R[2, 0]) / (4 * w), (R[1, 0] - R[0, 1]) / (4 * w)]
-    elif k == 1:
-        x = 0.5 * np.sqrt(1 + 2 * R[0, 0] - tr)
-        q = [(R[2, 1] - R[1, 2]) / (4 * x), x, (R[0, 1] + R[1, 0]) / (4 * x), (R[0, 2] + R[2, 0]) / (4 * x)]
-    elif k == 2:
-        y = 0.5 * np.sqrt(1 + 2 * R[1, 1] - tr)
-        q = [(R[0, 2] - R[2, 0]) / (4 * y), (R[0, 1] + R[1, 0]) / (4 * y), y, (R[1, 2] + R[2, 1]) / (4 * y)]
-    else:
-        z = 0.5 * np.sqrt(1 + 2 * R[2, 2] - tr)
-        q = [(R[1, 0] - R[0, 1]) / (4 * z), (R[0, 2] + R[2, 0]) / (4 * z), (R[1, 2] + R[2, 1]) / (4 * z), z]
-    q = np.asarray(q)
-    return q if q[0] >= 0 else -q
+    tr = np.trace(R, axis1=-2, axis2=-1)
+    # Shepperd: divide by the largest of 4 w^2, 4 x^2, 4 y^2, 4 z^2 (the candidates below, each minus one).
+    k = np.argmax(np.stack([tr, R[..., 0, 0], R[..., 1, 1], R[..., 2, 2]], axis=-1), axis=-1)
+    diag = np.where(k == 0, tr, 2 * np.take_along_axis(
+        np.stack([R[..., 0, 0], R[..., 0, 0], R[..., 1, 1], R[..., 2, 2]], axis=-1), k[..., None], axis=-1)[..., 0] - tr)
+    big = 0.5 * np.sqrt(1 + diag)
+    skew = np.stack([R[..., 2, 1] - R[..., 1, 2], R[..., 0, 2] - R[..., 2, 0], R[..., 1, 0] - R[..., 0, 1]], axis=-1)
+    sym = np.stack([R[..., 0, 1] + R[..., 1, 0], R[..., 0, 2] + R[..., 2, 0], R[..., 1, 2] + R[..., 2, 1]], axis=-1)
+    # Row k of the table: the quaternion's components (w, x, y, z) times 4 big, from the off-diagonal terms;
+    # component k itself is big.
+    zero = np.zeros_like(big)
+    table = np.stack([
+        np.stack([zero, skew[..., 0], skew[..., 1], skew[..., 2]], axis=-1),
+        np.stack([skew[..., 0], zero, sym[..., 0], sym[..., 1]], axis=-1),
+        np.stack([skew[..., 1], sym[..., 0], zero, sym[..., 2]], axis=-1),
+        np.stack([skew[..., 2], sym[..., 1], sym[..., 2], zero], axis=-1)], axis=-2)
+    q = np.take_along_axis(table, k[..., None, None], axis=-2)[..., 0, :] / (4 * big)[..., None]
+    np.put_along_axis(q, k[..., None], big[..., None], axis=-1)
+    return np.where(q[..., :1] >= 0, q, -q)
 
 
 Rotation = EulerSequence | UnitQuaternion

@@ -206,10 +206,11 @@ class Robot:
         x, R, u, udot = (np.asarray(v).T for v in self._kinematics().map(len(q))(q.T, qd.T, qdd.T))
         rows = []
         for k, body in enumerate(self.model.bodies.values()):
-            quats = np.array([quaternion_from_rotation(r.reshape(3, 3, order="F")) for r in R[:, 9 * k: 9 * k + 9]])
-            for i in range(1, len(quats)):
-                if quats[i] @ quats[i - 1] < 0:
-                    quats[i] = -quats[i]
+            quats = quaternion_from_rotation(R[:, 9 * k: 9 * k + 9].reshape(-1, 3, 3).transpose(0, 2, 1))
+            # One sign along the samples: sample i flips when its neighbour's (original) sign disagrees an odd
+            # number of times up to it.
+            turns = np.einsum("ij,ij->i", quats[1:], quats[:-1]) < 0
+            quats[1:] *= np.where(np.cumsum(turns) % 2 == 1, -1.0, 1.0)[:, None]
             rows.append(np.hstack([x[:, 3 * k: 3 * k + 3], quats]))
         return np.hstack(rows), u, udot
 
@@ -244,14 +245,21 @@ class Robot:
     def set_guess(self, problem, q_of_t) -> None:
         """Guess every coordinate and speed of ``problem`` from a joint-space path ``q_of_t(t) -> (len(t), n)``
         (speeds by central differences of it)."""
-        def column(k: int, speeds: bool):
-            def f(t):
-                t = np.atleast_1d(np.asarray(t, float))
+        last: dict = {}
+
+        def states(t: np.ndarray):
+            # Every column's guess asks for the same times in turn: the body states are computed once for them.
+            if last.get("t") is None or not np.array_equal(last["t"], t):
                 q = np.atleast_2d(q_of_t(t))
                 h = 1e-6
                 qd = (np.atleast_2d(q_of_t(t + h)) - np.atleast_2d(q_of_t(t - h))) / (2 * h)
-                qm, um, _ = self.body_states(q, qd)
-                return (um if speeds else qm)[:, k]
+                last.update(t=t.copy(), states=self.body_states(q, qd))
+            return last["states"]
+
+        def column(k: int, speeds: bool):
+            def f(t):
+                qm, um, _ = states(np.atleast_1d(np.asarray(t, float)))
+                return (um if speeds else qm)[:, k].copy()
             return f
 
         for k, n in enumerate(self.model.coordinate_names):
