@@ -37,6 +37,10 @@ import casadi as ca
 #: Flags for the cached libraries: -O1 compiles the QR and KKT code several times faster
 #: than -O2 at nearly the same speed of the result (measured on the bench scenes).
 FLAGS = ("-O1", "-fPIC", "-shared")
+#: ``-O0`` instead (``optimize=False``): for very large functions, whose ``-O1`` compile grows faster than
+#: their size (a UR5's Lagrangian Hessian at a collocation point, 70,855 operations: 44 s at -O1, 2.9 s at -O0,
+#: evaluating 18x and 5.7x faster than the virtual machine; ``python scripts/compiled_elements_calibration.py``).
+FLAGS_QUICK = ("-O0", "-fPIC", "-shared")
 #: A compile lock older than this is stale (the compiler's own timeout is 600 s).
 LOCK_TTL_S = 900.0
 #: Niceness of a background compile: the run that started it (and everyone else) goes first.
@@ -90,7 +94,7 @@ def _note(reason: str, message: str) -> None:
 
 
 def library_path(f: ca.Function, with_jacobian: bool = False, cc: list[str] | None = None,
-                 key: str | None = None) -> Path:
+                 key: str | None = None, flags: tuple[str, ...] = FLAGS) -> Path:
     """Where the compiled ``f`` is (or would be) cached.
 
     ``key``: the caller's own content hash of ``f`` (e.g. of the model file it was built
@@ -98,7 +102,7 @@ def library_path(f: ca.Function, with_jacobian: bool = False, cc: list[str] | No
     import hashlib
 
     h = hashlib.sha256()
-    for part in (ca.__version__, " ".join(FLAGS), " ".join(cc or []), str(with_jacobian)):
+    for part in (ca.__version__, " ".join(flags), " ".join(cc or []), str(with_jacobian)):
         h.update(part.encode() + b"\0")
     h.update(key.encode() if key else f.serialize().encode())
     return cache_dir() / f"{f.name()}_{h.hexdigest()[:24]}.so"
@@ -128,21 +132,22 @@ def _valid(path: Path) -> bool:
     return True
 
 
-def is_cached(f: ca.Function, with_jacobian: bool = False, key: str | None = None) -> bool:
+def is_cached(f: ca.Function, with_jacobian: bool = False, key: str | None = None, flags: tuple[str, ...] = FLAGS) -> bool:
     """True if :func:`compiled` would load ``f`` from the disk cache without compiling."""
     cc = _compiler()
-    return cc is not None and _valid(library_path(f, with_jacobian, cc, key))
+    return cc is not None and _valid(library_path(f, with_jacobian, cc, key, flags))
 
 
 def compiled(f: ca.Function, with_jacobian: bool = False, key: str | None = None, when_missing: str = "now",
-             what: str | None = None) -> ca.Function:
+             what: str | None = None, flags: tuple[str, ...] = FLAGS) -> ca.Function:
     """``f`` compiled to machine code (cached on disk), or ``f`` itself without a compiler.
 
     ``with_jacobian`` also compiles ``f.jacobian()`` as ``jac_<name>``, which CasADi's
     external functions offer to the solvers that need first derivatives (CVODES).
     ``when_missing``: on a cache miss, ``"now"`` compiles before returning (seconds), ``"background"``
     returns ``f`` and compiles it in a detached process for later runs (see the module docstring).
-    ``what``: how the notes name ``f`` (default its name).
+    ``what``: how the notes name ``f`` (default its name). ``flags``: :data:`FLAGS` or :data:`FLAGS_QUICK`
+    (compiled now only; a background compile uses :data:`FLAGS`).
     """
     import shlex
     import subprocess
@@ -155,13 +160,15 @@ def compiled(f: ca.Function, with_jacobian: bool = False, key: str | None = None
         _note("no-compiler", f"no C compiler ({'$CC=' + raw + ' not found' if raw else 'tried cc, gcc, clang'}): "
                              "CasADi's virtual machine evaluates the model functions (slower; install gcc or clang)")
         return f
-    path = library_path(f, with_jacobian, cc, key)
+    if when_missing == "background":
+        flags = FLAGS
+    path = library_path(f, with_jacobian, cc, key, flags)
     if not _valid(path):
         if when_missing == "background":
             _start_background(f, with_jacobian, cc, path, what or f"'{f.name()}'")
             return f
         try:
-            _build(f, with_jacobian, cc, path)
+            _build(f, with_jacobian, cc, path, flags)
         except (OSError, subprocess.SubprocessError, RuntimeError) as exc:
             first = str(exc).strip().splitlines()[0] if str(exc).strip() else type(exc).__name__
             _note(f"failed:{shlex.join(cc)}", f"compiling '{f.name()}' with {shlex.join(cc)} failed ({first}): "
@@ -175,7 +182,7 @@ def compiled(f: ca.Function, with_jacobian: bool = False, key: str | None = None
         return f
 
 
-def _build(f: ca.Function, with_jacobian: bool, cc: list[str], path: Path) -> None:
+def _build(f: ca.Function, with_jacobian: bool, cc: list[str], path: Path, flags: tuple[str, ...] = FLAGS) -> None:
     """Generate C, compile, check the library against ``f``, and rename it with its checksum into place."""
     import subprocess
     import tempfile
@@ -188,7 +195,7 @@ def _build(f: ca.Function, with_jacobian: bool, cc: list[str], path: Path) -> No
             gen.add(f.jacobian())  # named jac_<name>: what casadi.external looks for
         gen.generate(tmp + os.sep)
         so = Path(tmp) / path.name
-        cmd = [*cc, *FLAGS, "-o", str(so), str(Path(tmp) / f"{f.name()}.c"), "-lm"]
+        cmd = [*cc, *flags, "-o", str(so), str(Path(tmp) / f"{f.name()}.c"), "-lm"]
         compiler_calls.append(cmd)
         proc = subprocess.run(cmd, capture_output=True, text=True, timeout=600)
         if proc.returncode != 0:

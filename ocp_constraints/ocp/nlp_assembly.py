@@ -90,10 +90,14 @@ def derivative_cache(owner) -> dict:
 
 class BlockNLP:
     """The NLP of a list of elements over ``n`` decision variables, with assembled derivatives;
-    ``cache`` (:func:`derivative_cache`): element derivatives taken before, by function."""
+    ``cache`` (:func:`derivative_cache`): element derivatives taken before, by function; ``machine_code``:
+    ``(function, instances, kind) -> function to evaluate`` (a :class:`.compiled_elements.MachineCode`), else
+    every function runs on CasADi's virtual machine."""
 
-    def __init__(self, n: int, elements: list[Element], cache: dict | None = None):
+    def __init__(self, n: int, elements: list[Element], cache: dict | None = None, machine_code=None):
         self.n, self.elements, self._cache = n, elements, cache
+        # Each function as it is evaluated: itself (CasADi's virtual machine) or its compiled copy (.compiled_elements).
+        self._evaluated = machine_code or (lambda function, instances, kind: function)
         self.w = ca.MX.sym("w", n)
         self.lam_f, self.p = ca.MX.sym("lam_f"), ca.MX.sym("p", 0)
         w_ext = ca.vertcat(self.w, 0)  # index -1 (taken as n) reads a fixed zero
@@ -110,6 +114,8 @@ class BlockNLP:
             K, nr = el.instances, el.rows_per_instance
             Z = ca.reshape(w_ext[np.where(el.indices < 0, n, el.indices).ravel().tolist()], el.indices.shape[1], K)
             C = ca.DM(el.constants.T)
+            # The rows and cost stay on the virtual machine: nlpsol differentiates this graph at its setup
+            # (nlp_grad), which a compiled function, having no derivatives, would refuse.
             rows, cost = el.function.map(K)(Z, C)
             g.append(ca.vec(rows))
             f += ca.sum2(cost)
@@ -133,12 +139,15 @@ class BlockNLP:
         d = self._derivatives(el)
         if d["jac"] is not None:
             f, jr, jc = d["jac"]
+            f = self._evaluated(f, K, "jac")
             jac.add(ca.vec(f.map(K)(Z, C)), offset + np.arange(K)[:, None] * nr + jr[None, :], el.indices[:, jc])
         if d["grad"] is not None:
             f, gi = d["grad"]
+            f = self._evaluated(f, K, "grad")
             grad.add(ca.vec(f.map(K)(Z, C)), el.indices[:, gi], np.zeros((K, len(gi)), int))
         if d["hess"] is not None:
             f, hr, hc = d["hess"]
+            f = self._evaluated(f, K, "hess")
             Lam = ca.reshape(self.lam_g[offset : offset + K * nr], nr, K)
             a, b = el.indices[:, hr], el.indices[:, hc]
             # A variable read twice by one instance: its local off-diagonal pair lands on

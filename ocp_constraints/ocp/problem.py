@@ -19,6 +19,7 @@ from typing import Callable
 import casadi as ca
 import numpy as np
 
+from .compiled_elements import check_policy
 from ..mechanics.equations import SystemEquations
 from ..errors import ModelError
 from ..mechanics.model import Model
@@ -64,6 +65,11 @@ class OptimalControlProblem:
         :attr:`nlp_coordinates` says which. ``"condensed"``: the maximal coordinates with the
         accelerations and multipliers solved from each point's KKT system instead of NLP variables,
         slacks only at mesh points (:mod:`~ocp_constraints.ocp.condensed_transcription`).
+    compiled
+        Whether the NLP's element functions run as machine code (the system C compiler, cached on
+        disk by content): ``"auto"`` (default) where this solve's predicted saving exceeds the compile
+        time, or a copy is cached already; ``"always"``; ``"never"`` (CasADi's virtual machine)
+        (:mod:`~ocp_constraints.ocp.compiled_elements`).
     """
 
     model: Model
@@ -77,12 +83,14 @@ class OptimalControlProblem:
     final_values: dict[str, float] = field(default_factory=dict)
     guess: dict[str, Callable[[np.ndarray], np.ndarray]] = field(default_factory=dict)
     coordinates: str = "auto"
+    compiled: str = "auto"
 
     def __post_init__(self) -> None:
         if not (np.isfinite(self.t_final) and self.t_final > 0):
             raise ModelError(f"t_final must be a positive number of seconds, got {self.t_final!r}")
         if self.coordinates not in COORDINATES:
             raise ModelError(f"coordinates must be one of {', '.join(COORDINATES)}, got {self.coordinates!r}")
+        check_policy(self.compiled)
         self.eqs = SystemEquations(self.model)
         self.lam = ca.SX.sym("lam", self.eqs.nc)
         e = self.eqs
@@ -224,7 +232,7 @@ class OptimalControlProblem:
                 self.time_weight, tuple(self.initial_values), tuple(self.final_values),
                 self.t_final_bounds is not None, None if self.t_final_bounds is not None else self.t_final,
                 # In joint coordinates a bound on a body coordinate or speed is a path row of the NLP.
-                self.coordinates, () if self.nlp_coordinates == "maximal" else tuple(sorted(
+                self.coordinates, check_policy(self.compiled), () if self.nlp_coordinates == "maximal" else tuple(sorted(
                     (n, b) for n, b in self.bounds.items() if n not in self.model.inputs)))
 
     def solve(self, method=None, ipopt_options: dict | None = None, warm_start=None, *, check: bool = True,
@@ -302,6 +310,7 @@ class OptimalControlProblem:
 
         if self.coordinates not in COORDINATES:
             raise ModelError(f"coordinates must be one of {', '.join(COORDINATES)}, got {self.coordinates!r}")
+        check_policy(self.compiled)
         if self.nlp_coordinates == "joint":
             from .joint_transcription import transcribe_joint as transcribe
         elif self.nlp_coordinates == "condensed":

@@ -32,6 +32,7 @@ import time
 import casadi as ca
 import numpy as np
 
+from .compiled_elements import machine_code
 from .nlp_assembly import BlockNLP, derivative_cache
 from .bounds import variable_bounds
 from .guess import consistent_guess, from_solution
@@ -83,7 +84,11 @@ class Transcription(ElementKinds):
             quad[points] += local.weights * hk
         self.fractions, self.quadrature = frac, quad
 
-        self.block = BlockNLP(sum(self.layout.sizes()), self._elements(), derivative_cache(getattr(self, "user_problem", problem)))
+        owner = getattr(self, "user_problem", problem)
+        self.machine_code = machine_code(owner, getattr(owner, "compiled", "auto"))
+        compiling = self.machine_code.seconds
+        self.block = BlockNLP(sum(self.layout.sizes()), self._elements(), derivative_cache(owner), self.machine_code)
+        self.compile_time = self.machine_code.seconds - compiling      # of build_time: compiling or loading C
         self.nlp = self.block.nlp
         self._lbg, self._ubg = self.block.lbg, self.block.ubg
         self._boundary_rows = []
