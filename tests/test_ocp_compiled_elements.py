@@ -88,3 +88,20 @@ def test_without_a_compiler_the_virtual_machine_solves_and_a_note_says_so(own_ca
     sol = problem.solve(oc.Radau(6, degree=3))
     assert sol.stats["success"] and problem.transcription(oc.Radau(6, degree=3)).machine_code.compiled == []
     assert "no C compiler" in capsys.readouterr().err
+
+
+def test_auto_compiles_once_the_savings_missed_reach_the_compile_time(own_cache, monkeypatch):
+    """Ski rental: a function whose one solve saves 0.6 of its compile time stays on the virtual machine
+    for its first mesh and is compiled for its second (the savings missed and due: 1.2 of it)."""
+    monkeypatch.setattr(compiled_elements, "MIN_VM_SECONDS", 0.0)
+    problem = _swing_up("never")
+    problem.transcription(oc.Radau(4, degree=3))
+    f = next(iter(v for v in problem._element_derivatives.values() if isinstance(v, dict) and v["hess"]))["hess"][0]
+    e = compiled_elements.EVALUATIONS["hess"]
+    price = f.n_instructions() * compiled_elements.COMPILE_S[compiled_elements.flags_for(f)]
+    K = int(round(0.6 * price / compiled_elements.saving(f, 1, e)))
+    machine = compiled_elements.MachineCode("auto")
+    assert machine(f, K, "hess") is f and machine.compiled == []
+    copy = machine(f, K, "hess")
+    assert copy is not f and machine.compiled == [f.name()]
+    assert machine(f, 1, "hess") is copy                    # kept for the later meshes, whatever their size

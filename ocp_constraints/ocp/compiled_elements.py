@@ -8,17 +8,20 @@ collocation point has 70,855 operations: at 200 points the virtual machine spend
 IPOPT iteration, the ``-O1`` library 5 ms and the ``-O0`` one 16 ms
 (``python scripts/compiled_elements_calibration.py``, which measures every constant below).
 
-Compiling costs seconds, so the ``"auto"`` policy compiles a function only when this solve's
-predicted saving is larger than its predicted compile time, from its operation count ``n``, its
-instances ``K`` and the evaluations an IPOPT solve typically makes (:data:`EVALUATIONS`):
+Compiling costs seconds, so the ``"auto"`` policy compiles a function when the time compiling it
+saves is predicted to exceed its compile time, from its operation count ``n``, its instances ``K``
+and the evaluations an IPOPT solve typically makes (:data:`EVALUATIONS`):
 
     saving  = n K E (VM_NS - COMPILED_NS[flags]) 1e-9 s,   compile = n COMPILE_S[flags] s,
 
-with ``-O1`` up to :data:`O1_MAX_OPERATIONS` operations and ``-O0`` above (``-O1``'s compile time
-grows faster than the function: 3.9 s at 20k operations, 44 s at 71k). A function compiled before
-(any problem, any run: the cache is keyed by its content) is loaded whatever its size. Small
-problems (the swing-up: a few hundred operations per kind) never compile; the meshes of one
-refinement grow, and the first mesh where a kind pays compiles it for the rest.
+counting the savings the earlier solves of the same problem would have had (their meshes' ``K``)
+with this one's: the rule of ski rental, rent (the virtual machine) until the rent paid and due
+reaches the price (the compile), then buy; it never spends more than twice the better of the two
+choices made in hindsight, and a refinement, whose meshes grow and whose solves are many, compiles
+its heavy kinds after a few of them. ``-O1`` up to :data:`O1_MAX_OPERATIONS` operations and ``-O0``
+above (``-O1``'s compile time grows faster than the function: 3.9 s at 20k operations, 44 s at 71k).
+A function compiled before (any problem, any run: the cache is keyed by its content) is loaded
+whatever its size. Small problems (the swing-up: a few hundred operations per kind) never compile.
 
 Policies (``OptimalControlProblem.compiled``): ``"auto"`` (above), ``"always"`` (every function
 now, or loaded), ``"never"`` (the virtual machine). Without a C compiler, or when it fails, the
@@ -26,6 +29,7 @@ virtual machine runs and a note says so once (:func:`..dynamics.compiled.compile
 """
 from __future__ import annotations
 
+import hashlib
 import sys
 import time
 
@@ -61,12 +65,16 @@ def flags_for(function: ca.Function) -> tuple[str, ...]:
     return FLAGS if function.n_instructions() <= O1_MAX_OPERATIONS else FLAGS_QUICK
 
 
-def pays(function: ca.Function, instances: int, evaluations: int) -> bool:
+def saving(function: ca.Function, instances: int, evaluations: int) -> float:
+    """Seconds the compiled ``function`` saves over ``evaluations`` evaluations of ``instances`` instances."""
+    return function.n_instructions() * instances * evaluations * (VM_NS - COMPILED_NS[flags_for(function)]) * 1e-9
+
+
+def pays(function: ca.Function, instances: int, evaluations: int, earlier: float = 0.0) -> bool:
     """Whether compiling ``function`` now is predicted to cost less than the virtual machine's extra time
-    over ``evaluations`` evaluations of ``instances`` instances (see the module docstring)."""
-    n, flags = function.n_instructions(), flags_for(function)
-    saving = n * instances * evaluations * (VM_NS - COMPILED_NS[flags]) * 1e-9
-    return saving > n * COMPILE_S[flags]
+    over ``evaluations`` evaluations of ``instances`` instances, plus ``earlier`` seconds the earlier solves
+    would have saved (ski rental, see the module docstring)."""
+    return earlier + saving(function, instances, evaluations) > function.n_instructions() * COMPILE_S[flags_for(function)]
 
 
 class MachineCode:
@@ -76,6 +84,8 @@ class MachineCode:
     def __init__(self, policy: str):
         self.policy = check_policy(policy)
         self._done: dict[int, tuple[ca.Function, ca.Function]] = {}    # id(function) -> (function, its copy)
+        self._rent: dict[int, tuple[ca.Function, float]] = {}            # id(function) -> (function, savings missed)
+        self._keys: dict[int, tuple[ca.Function, str]] = {}              # id(function) -> (function, content hash)
         self.seconds = 0.0
         self.compiled: list[str] = []
 
@@ -89,21 +99,36 @@ class MachineCode:
         seen = self._done.get(id(function))
         if seen is not None and seen[0] is function:
             return seen[1]
-        flags = flags_for(function)
-        if not (self.policy == "always" or is_cached(function, flags=flags)
-                or pays(function, instances, EVALUATIONS[kind])):
+        flags, key = flags_for(function), self._key(function)
+        if not (self.policy == "always" or is_cached(function, key=key, flags=flags)
+                or pays(function, instances, EVALUATIONS[kind], self._missed(function))):
+            rent = self._rent.get(id(function), (function, 0.0))[1]
+            self._rent[id(function)] = (function, rent + saving(function, instances, EVALUATIONS[kind]))
             return function
         started = time.perf_counter()
         n = function.n_instructions()
-        if n * COMPILE_S[flags] >= 1.0 and not is_cached(function, flags=flags):      # a pause the user should know of
+        if n * COMPILE_S[flags] >= 1.0 and not is_cached(function, key=key, flags=flags):      # a pause the user should know of
             print(f"note: compiling '{function.name()}' ({n:,} operations, about {n * COMPILE_S[flags]:.0f} s) to machine "
                   f"code for this and later solves (OptimalControlProblem.compiled = 'never' turns this off)", file=sys.stderr)
-        copy = compiled(function, flags=flags, what=f"'{function.name()}' ({function.n_instructions()} operations)")
+        copy = compiled(function, key=key, flags=flags, what=f"'{function.name()}' ({function.n_instructions()} operations)")
         self.seconds += time.perf_counter() - started
         if copy is not function:
             self.compiled.append(function.name())
         self._done[id(function)] = (function, copy)    # the function is kept with it: its id is not reused
         return copy
+
+    def _key(self, function: ca.Function) -> str:
+        """The function's content hash, computed once (serializing a UR5 point Hessian takes ~10 ms, every mesh)."""
+        seen = self._keys.get(id(function))
+        if seen is None or seen[0] is not function:
+            seen = (function, hashlib.sha256(function.serialize().encode()).hexdigest())
+            self._keys[id(function)] = seen
+        return seen[1]
+
+    def _missed(self, function: ca.Function) -> float:
+        """What compiling ``function`` would have saved in this problem's earlier solves (s)."""
+        seen = self._rent.get(id(function))
+        return seen[1] if seen is not None and seen[0] is function else 0.0
 
 
 def machine_code(owner, policy: str) -> MachineCode:
