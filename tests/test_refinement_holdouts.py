@@ -1,5 +1,5 @@
 """Textbook holdouts of accuracy on request (issue 19), written through the public API in
-scripts/refinement_holdouts.py and checked here against their closed forms: a block on a rail pushed
+scripts/refinement_holdout_problems.py and checked here against their closed forms: a block on a rail pushed
 bang-bang in minimum time (switch at T/2, T = 2 sqrt(M D / F_MAX)), and the reference of the clipped
 minimum-effort push (c2 by root-finding) against an independent integration of its equation of motion.
 The other rows of results/bench/refinement_holdouts.md (the clipped push and the hinge under refinement)
@@ -20,21 +20,22 @@ holdouts = importlib.util.module_from_spec(_SPEC)
 # Registered before it runs: its dataclasses look their module up by name (scripts/ is no package).
 sys.modules.setdefault("refinement_holdouts", holdouts)
 _SPEC.loader.exec_module(holdouts)
+problems = holdouts.problems            # scripts/refinement_holdout_problems.py, loaded by the script
 
 
 def test_the_clipped_push_found_by_root_finding_brings_the_block_to_rest_at_its_distance():
     """A second derivation of the clipped reference: F = clip(c2 (T/2 - t), -U, U) integrated by DOP853
     (not the piecewise polynomials the script integrates exactly) ends at x = D, v = 0, and saturates at
     both ends because the unconstrained optimum's peak 6 M D / T^2 is above U."""
-    c2 = holdouts.clipped_c2()
-    T, U, M, D = holdouts.CL_T, holdouts.CL_U, holdouts.M, holdouts.CL_D
+    c2 = problems.clipped_c2()
+    T, U, M, D = problems.CL_T, problems.CL_U, problems.M, problems.CL_D
     assert 6 * M * D / T**2 > U
     t1 = T / 2 - U / c2
     out = solve_ivp(lambda t, y: [y[1], np.clip(c2 * (T / 2 - t), -U, U) / M], (0.0, T), [0.0, 0.0],
                     method="DOP853", rtol=1e-12, atol=1e-12, max_step=0.01)
     assert 0.0 < t1 < T / 2
     assert math.isclose(out.y[0, -1], D, abs_tol=1e-9) and abs(out.y[1, -1]) < 1e-9
-    ref = holdouts.clipped_reference()
+    ref = problems.clipped_reference()
     t = np.array([0.3, 1.1, 1.9])
     x_ivp = solve_ivp(lambda t, y: [y[1], np.clip(c2 * (T / 2 - t), -U, U) / M], (0.0, T), [0.0, 0.0],
                       method="DOP853", rtol=1e-12, atol=1e-12, max_step=0.01, t_eval=t).y[0]
@@ -53,8 +54,8 @@ def test_the_bang_bang_block_meets_1e_3_against_the_closed_form_with_a_mesh_poin
     true, est, tol = row["true"], row["estimate"], 1e-3
     assert row["met"], row["message"]
     assert true["states"] <= tol and true["t_final"] <= tol and true["objective"] <= tol
-    assert math.isclose(row["t_final"], 2 * math.sqrt(holdouts.M * holdouts.BB_D / holdouts.BB_FMAX), abs_tol=tol)
-    assert row["switch_gap"][holdouts.BB_T / 2] < 1e-6
+    assert math.isclose(row["t_final"], 2 * math.sqrt(problems.M * problems.BB_D / problems.BB_FMAX), abs_tol=tol)
+    assert row["switch_gap"][problems.BB_T / 2] < 1e-6
     assert row["intervals"] <= 30 and row["widths"][1] >= 10 * row["widths"][0]
     assert row["normal_force_error"] < 1e-9
     assert est["multipliers"] / 10 <= true["multipliers"] <= est["multipliers"]
