@@ -2,6 +2,7 @@
 refusal of a bad policy, the virtual machine when there is no compiler, and small problems left alone."""
 from __future__ import annotations
 
+import casadi as ca
 import numpy as np
 import pytest
 
@@ -33,6 +34,9 @@ def test_compiled_derivatives_give_the_virtual_machines_numbers_and_optimum(own_
     n, m = tv.block.n, tv.block.m
     for _ in range(3):
         x, lam = rng.uniform(-1, 1, n), rng.uniform(-1, 1, m)
+        fg = [ca.Function("fg", [t.block.w], [t.block.f, t.block.g]) for t in (tm, tv)]
+        for u, w in zip(fg[0](x), fg[1](x)):
+            assert np.allclose(np.asarray(u), np.asarray(w), rtol=1e-12, atol=1e-12)
         for name, args in (("grad_f", (x, [])), ("jac_g", (x, [])), ("hess_lag", (x, [], 0.7, lam))):
             a, b = (getattr(t.block, name)(*args) for t in (tm, tv))
             a, b = ([np.asarray(v.full()) for v in (r if isinstance(r, (list, tuple)) else [r])] for r in (a, b))
@@ -62,20 +66,6 @@ def test_auto_loads_what_an_earlier_run_compiled(own_cache, monkeypatch):
     assert len(compiled_module.compiler_calls) == calls                   # loaded, not compiled
 
 
-def test_auto_compiles_a_function_when_the_solve_pays_for_it():
-    """The cost model of the module docstring: a function pays once instances x evaluations reach
-    COMPILE_S / (VM_NS - COMPILED_NS) per operation, whatever its size."""
-    problem = _swing_up("never")
-    tr = problem.transcription(oc.Radau(4, degree=3))
-    f = next(iter(v for v in problem._element_derivatives.values() if isinstance(v, dict) and v["hess"]))["hess"][0]
-    flags = compiled_elements.flags_for(f)
-    per_op = compiled_elements.COMPILE_S[flags] / ((compiled_elements.VM_NS - compiled_elements.COMPILED_NS[flags]) * 1e-9)
-    e = compiled_elements.EVALUATIONS["hess"]
-    assert not compiled_elements.pays(f, int(0.9 * per_op / e), e)
-    assert compiled_elements.pays(f, int(1.1 * per_op / e) + 1, e)
-    assert tr.machine_code.compiled == []
-
-
 def test_a_bad_compiled_policy_is_refused_naming_it():
     with pytest.raises(oc.ModelError, match="compiled must be one of auto, always, never, got 'fast'"):
         _swing_up("fast").solve(oc.Radau(4, degree=3))
@@ -97,9 +87,10 @@ def test_auto_compiles_once_the_savings_missed_reach_the_compile_time(own_cache,
     problem = _swing_up("never")
     problem.transcription(oc.Radau(4, degree=3))
     f = next(iter(v for v in problem._element_derivatives.values() if isinstance(v, dict) and v["hess"]))["hess"][0]
-    e = compiled_elements.EVALUATIONS["hess"]
-    price = f.n_instructions() * compiled_elements.COMPILE_S[compiled_elements.flags_for(f)]
-    K = int(round(0.6 * price / compiled_elements.saving(f, 1, e)))
+    e, size = compiled_elements.EVALUATIONS["hess"], compiled_elements.Size.of(f, "hess")
+    price = f.n_instructions() * compiled_elements.COMPILE_S[size.flags]     # the docstring's n COMPILE_S
+    saving_one = f.n_instructions() * e * (compiled_elements.VM_NS - compiled_elements.COMPILED_NS[size.flags]) * 1e-9
+    K = int(round(0.6 * price / saving_one))
     machine = compiled_elements.MachineCode("auto")
     assert machine(f, K, "hess") is f and machine.compiled == []
     copy = machine(f, K, "hess")

@@ -1,18 +1,21 @@
 """Element functions as machine code where it pays: the ``compiled`` policy of an optimal-control problem.
 
 An NLP of :mod:`.nlp_assembly` spends its evaluation time in a few SX functions (each element kind's
-rows, their Jacobian, the Lagrangian Hessian) mapped over their instances, most of it in the derivatives. CasADi's virtual machine runs
-them at ~7 ns per operation; compiled to C by the system compiler (:mod:`..dynamics.compiled`, cached
-on disk by the function's content) they run 5-18x faster. A UR5 arm's Lagrangian Hessian at a
-collocation point has 70,855 operations: at 200 points the virtual machine spends 93 ms on it per
-IPOPT iteration, the ``-O1`` library 5 ms and the ``-O0`` one 16 ms
+rows and cost, their Jacobian, the Lagrangian Hessian) mapped over their instances. CasADi's virtual
+machine runs them at ~7 ns per operation; compiled to C by the system compiler (:mod:`..dynamics.compiled`,
+cached on disk by the function's content, checked against the virtual machine before it is kept) they
+run 3-20x faster. A UR5 arm's Lagrangian Hessian at a collocation point has 70,855 operations; its
+Jacobian 19,966: at 200 points the virtual machine spends ~130 ms on them per IPOPT iteration
 (``python scripts/compiled_elements_calibration.py``, which measures every constant below).
 
 Compiling costs seconds, so the ``"auto"`` policy compiles a function when the time compiling it
 saves is predicted to exceed its compile time, from its operation count ``n``, its instances ``K``
 and the evaluations an IPOPT solve typically makes (:data:`EVALUATIONS`):
 
-    saving  = n K E (VM_NS - COMPILED_NS[flags]) 1e-9 s,   compile = n COMPILE_S[flags] s,
+    saving  = n K E (VM_NS - COMPILED_NS[flags]) 1e-9 s,   compile = n_c COMPILE_S[flags] s
+
+(``n_c``: the operations compiled, :class:`Size`: an element kind's rows and cost are compiled with
+their Jacobian, which nlpsol needs to differentiate the NLP's graph at its setup),
 
 counting the savings the earlier solves of the same problem would have had (their meshes' ``K``)
 with this one's: the rule of ski rental, rent (the virtual machine) until the rent paid and due
@@ -32,6 +35,7 @@ from __future__ import annotations
 import hashlib
 import sys
 import time
+from dataclasses import dataclass
 
 import casadi as ca
 
@@ -48,10 +52,9 @@ O1_MAX_OPERATIONS = 25_000
 #: Below this predicted virtual-machine time in one solve (s) a function is left alone, not even looked up
 #: in the cache (the lookup serializes it: ~0.1 ms for a small kind, on every mesh of a refinement).
 MIN_VM_SECONDS = 0.2
-#: Evaluations of each derivative function in one IPOPT solve of ~25 iterations (once an iteration). The
-#: element kinds' rows and cost stay on the virtual machine (:class:`.nlp_assembly.BlockNLP`: nlpsol
-#: differentiates them), 10-15% of the evaluation time (UR5, Radau 5 on 40 intervals).
-EVALUATIONS = {"jac": 25, "grad": 25, "hess": 25}
+#: Evaluations of each function in one IPOPT solve of ~25 iterations: the derivatives once an iteration,
+#: the element kinds' rows and cost three times (objective, constraints, objective gradient's value).
+EVALUATIONS = {"function": 75, "jac": 25, "grad": 25, "hess": 25}
 
 
 def check_policy(policy: str) -> str:
@@ -60,21 +63,32 @@ def check_policy(policy: str) -> str:
     return policy
 
 
-def flags_for(function: ca.Function) -> tuple[str, ...]:
-    """``-O1`` for a function of at most :data:`O1_MAX_OPERATIONS` operations, else ``-O0``."""
-    return FLAGS if function.n_instructions() <= O1_MAX_OPERATIONS else FLAGS_QUICK
+@dataclass(frozen=True)
+class Size:
+    """What compiling one function involves: the operations evaluated (the function's), the operations
+    compiled (with, for an element kind's rows and cost, their Jacobian: nlpsol differentiates the NLP's
+    graph at setup, and a compiled function without derivatives would stop it), and the flags
+    (``-O1`` up to :data:`O1_MAX_OPERATIONS` operations in one function, else ``-O0``)."""
 
+    evaluated: int
+    compiled: int
+    flags: tuple[str, ...]
+    with_jacobian: bool
 
-def saving(function: ca.Function, instances: int, evaluations: int) -> float:
-    """Seconds the compiled ``function`` saves over ``evaluations`` evaluations of ``instances`` instances."""
-    return function.n_instructions() * instances * evaluations * (VM_NS - COMPILED_NS[flags_for(function)]) * 1e-9
+    @classmethod
+    def of(cls, function: ca.Function, kind: str) -> Size:
+        n = function.n_instructions()
+        jac = function.jacobian().n_instructions() if kind == "function" else 0
+        return cls(n, n + jac, FLAGS if max(n, jac) <= O1_MAX_OPERATIONS else FLAGS_QUICK, kind == "function")
 
+    def saving(self, instances: int, evaluations: int) -> float:
+        """Seconds the compiled copy saves over ``evaluations`` evaluations of ``instances`` instances."""
+        return self.evaluated * instances * evaluations * (VM_NS - COMPILED_NS[self.flags]) * 1e-9
 
-def pays(function: ca.Function, instances: int, evaluations: int, earlier: float = 0.0) -> bool:
-    """Whether compiling ``function`` now is predicted to cost less than the virtual machine's extra time
-    over ``evaluations`` evaluations of ``instances`` instances, plus ``earlier`` seconds the earlier solves
-    would have saved (ski rental, see the module docstring)."""
-    return earlier + saving(function, instances, evaluations) > function.n_instructions() * COMPILE_S[flags_for(function)]
+    @property
+    def price(self) -> float:
+        """Predicted compile time (s)."""
+        return self.compiled * COMPILE_S[self.flags]
 
 
 class MachineCode:
@@ -86,12 +100,13 @@ class MachineCode:
         self._done: dict[int, tuple[ca.Function, ca.Function]] = {}    # id(function) -> (function, its copy)
         self._rent: dict[int, tuple[ca.Function, float]] = {}            # id(function) -> (function, savings missed)
         self._keys: dict[int, tuple[ca.Function, str]] = {}              # id(function) -> (function, content hash)
+        self._sizes: dict[int, tuple[ca.Function, Size]] = {}
         self.seconds = 0.0
         self.compiled: list[str] = []
 
     def __call__(self, function: ca.Function, instances: int, kind: str) -> ca.Function:
         """``function`` (an SX function evaluated ``instances`` times per NLP evaluation) or its compiled copy;
-        ``kind``: ``"jac"``, ``"grad"`` or ``"hess"`` (:data:`EVALUATIONS`)."""
+        ``kind``: ``"function"`` (an element kind's rows and cost), ``"jac"``, ``"grad"`` or ``"hess"``."""
         if self.policy == "never" or not function.is_a("SXFunction"):
             return function
         if self.policy == "auto" and function.n_instructions() * instances * EVALUATIONS[kind] * VM_NS * 1e-9 < MIN_VM_SECONDS:
@@ -99,23 +114,31 @@ class MachineCode:
         seen = self._done.get(id(function))
         if seen is not None and seen[0] is function:
             return seen[1]
-        flags, key = flags_for(function), self._key(function)
-        if not (self.policy == "always" or is_cached(function, key=key, flags=flags)
-                or pays(function, instances, EVALUATIONS[kind], self._missed(function))):
-            rent = self._rent.get(id(function), (function, 0.0))[1]
-            self._rent[id(function)] = (function, rent + saving(function, instances, EVALUATIONS[kind]))
+        size, key = self._size(function, kind), self._key(function)
+        cached = is_cached(function, size.with_jacobian, key=key, flags=size.flags)
+        missed = self._rent.get(id(function), (function, 0.0))[1]
+        due = size.saving(instances, EVALUATIONS[kind])
+        if not (self.policy == "always" or cached or missed + due > size.price):      # ski rental
+            self._rent[id(function)] = (function, missed + due)
             return function
         started = time.perf_counter()
-        n = function.n_instructions()
-        if n * COMPILE_S[flags] >= 1.0 and not is_cached(function, key=key, flags=flags):      # a pause the user should know of
-            print(f"note: compiling '{function.name()}' ({n:,} operations, about {n * COMPILE_S[flags]:.0f} s) to machine "
+        if size.price >= 1.0 and not cached:        # a pause the user should know of
+            print(f"note: compiling '{function.name()}' ({size.compiled:,} operations, about {size.price:.0f} s) to machine "
                   f"code for this and later solves (OptimalControlProblem.compiled = 'never' turns this off)", file=sys.stderr)
-        copy = compiled(function, key=key, flags=flags, what=f"'{function.name()}' ({function.n_instructions()} operations)")
+        copy = compiled(function, size.with_jacobian, key=key, flags=size.flags,
+                        what=f"'{function.name()}' ({size.compiled:,} operations)")
         self.seconds += time.perf_counter() - started
         if copy is not function:
             self.compiled.append(function.name())
         self._done[id(function)] = (function, copy)    # the function is kept with it: its id is not reused
         return copy
+
+    def _size(self, function: ca.Function, kind: str) -> Size:
+        seen = self._sizes.get(id(function))
+        if seen is None or seen[0] is not function:
+            seen = (function, Size.of(function, kind))
+            self._sizes[id(function)] = seen
+        return seen[1]
 
     def _key(self, function: ca.Function) -> str:
         """The function's content hash, computed once (serializing a UR5 point Hessian takes ~10 ms, every mesh)."""
@@ -124,11 +147,6 @@ class MachineCode:
             seen = (function, hashlib.sha256(function.serialize().encode()).hexdigest())
             self._keys[id(function)] = seen
         return seen[1]
-
-    def _missed(self, function: ca.Function) -> float:
-        """What compiling ``function`` would have saved in this problem's earlier solves (s)."""
-        seen = self._rent.get(id(function))
-        return seen[1] if seen is not None and seen[0] is function else 0.0
 
 
 def machine_code(owner, policy: str) -> MachineCode:

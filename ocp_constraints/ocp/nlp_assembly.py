@@ -114,9 +114,7 @@ class BlockNLP:
             K, nr = el.instances, el.rows_per_instance
             Z = ca.reshape(w_ext[np.where(el.indices < 0, n, el.indices).ravel().tolist()], el.indices.shape[1], K)
             C = ca.DM(el.constants.T)
-            # The rows and cost stay on the virtual machine: nlpsol differentiates this graph at its setup
-            # (nlp_grad), which a compiled function, having no derivatives, would refuse.
-            rows, cost = el.function.map(K)(Z, C)
+            rows, cost = self._evaluated(el.function, K, "function").map(K)(Z, C)
             g.append(ca.vec(rows))
             f += ca.sum2(cost)
             reps = K if el.lower.size == nr else 1
