@@ -18,11 +18,17 @@ def _swing_up(policy: str):
     return problem
 
 
+@pytest.fixture(scope="module")
+def module_cache(tmp_path_factory):
+    """One cache folder for this file's tests: the swing-up's functions are compiled once (~0.3 s each)."""
+    return tmp_path_factory.mktemp("ocp_compiled_cache")
+
+
 @pytest.fixture
-def own_cache(tmp_path, monkeypatch):
-    monkeypatch.setenv("XDG_CACHE_HOME", str(tmp_path))
+def own_cache(module_cache, monkeypatch):
+    monkeypatch.setenv("XDG_CACHE_HOME", str(module_cache))
     monkeypatch.setattr(compiled_module, "_VALID", {})
-    return tmp_path
+    return module_cache
 
 
 def test_compiled_derivatives_give_the_virtual_machines_numbers_and_optimum(own_cache):
@@ -80,9 +86,11 @@ def test_without_a_compiler_the_virtual_machine_solves_and_a_note_says_so(own_ca
     assert "no C compiler" in capsys.readouterr().err
 
 
-def test_auto_compiles_once_the_savings_missed_reach_the_compile_time(own_cache, monkeypatch):
+def test_auto_compiles_once_the_savings_missed_reach_the_compile_time(tmp_path, monkeypatch):
     """Ski rental: a function whose one solve saves 0.6 of its compile time stays on the virtual machine
     for its first mesh and is compiled for its second (the savings missed and due: 1.2 of it)."""
+    monkeypatch.setenv("XDG_CACHE_HOME", str(tmp_path))          # nothing compiled before: an empty cache
+    monkeypatch.setattr(compiled_module, "_VALID", {})
     monkeypatch.setattr(compiled_elements, "MIN_VM_SECONDS", 0.0)
     problem = _swing_up("never")
     problem.transcription(oc.Radau(4, degree=3))
@@ -96,3 +104,15 @@ def test_auto_compiles_once_the_savings_missed_reach_the_compile_time(own_cache,
     copy = machine(f, K, "hess")
     assert copy is not f and machine.compiled == [f.name()]
     assert machine(f, 1, "hess") is copy                    # kept for the later meshes, whatever their size
+
+
+def test_what_a_solve_keeps_on_the_problem_stays_off_the_dask_workers(own_cache):
+    """Multi-start on a Dask client ships the problem without its local caches: the compiled copies are
+    libraries loaded in this process (a worker elsewhere has no such file); everything a solve adds is local."""
+    from ocp_constraints.ocp.multistart import LOCAL_CACHES
+
+    problem = _swing_up("always")
+    before = set(problem.__dict__)
+    problem.solve(oc.Radau(5, degree=3))
+    gained = {k for k in set(problem.__dict__) - before if k.startswith("_")}
+    assert "_machine_code" in gained and gained <= set(LOCAL_CACHES) | {"_auto_coordinates"}

@@ -54,8 +54,9 @@ DEFAULT_AMPLITUDE = 0.5   # perturbation amplitude relative to each quantity's r
 DEFAULT_RTOL = 1e-5       # objectives within this relative distance are one local optimum
 SUCCESS = ("Solve_Succeeded", "Solved_To_Acceptable_Level")
 # What a problem keeps of its solves (problem.transcription's NLPs with their IPOPT instances; the element
-# kinds of transcription_elements and their derivatives of nlp_assembly): not sent to Dask workers.
-LOCAL_CACHES = ("_transcriptions", "_element_kinds", "_element_derivatives")
+# kinds of transcription_elements and their derivatives of nlp_assembly; their compiled copies of
+# compiled_elements, libraries loaded in this process): not sent to Dask workers.
+LOCAL_CACHES = ("_transcriptions", "_element_kinds", "_element_derivatives", "_machine_code")
 
 
 class StartRecord(NamedTuple):
