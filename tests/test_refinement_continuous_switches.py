@@ -51,3 +51,23 @@ def test_path_constraints_of_the_states_alone_are_continuous_those_of_inputs_or_
     sol = problem.solve(Radau(4, degree=3), progress=False)
     flags = {name: continuous for name, _, _, _, _, continuous in bounded_quantities(sol)}
     assert flags == {"F": False, "speed limit": True, "push squared": False, "rail's lift": False}
+
+
+def test_an_input_crossing_between_its_bounds_over_many_intervals_is_an_arc_not_a_jump():
+    """Minimum effort under a force limit: F = clip(3 cos(pi t), -1, 1) leaves +1 at acos(1/3)/pi and reaches -1
+    at acos(-1/3)/pi along a free arc (closed form); over several mesh intervals that is two junctions, while
+    the same values inside two intervals (or within JUMP_SPAN of the horizon) are a smeared jump."""
+    from ocp_constraints.ocp.switch_detection import JUMP_SPAN
+
+    t = np.linspace(0.02, 0.98, 25)
+    v = np.clip(3.0 * np.cos(math.pi * t), -1.0, 1.0)
+    s, eps = activity(v, -1.0, 1.0)
+    many = np.floor(t * 20).astype(int)                       # twenty intervals: the free run spans four
+    found = locate(t, v, s, -1.0, 1.0, eps, intervals=many)
+    assert [k for _, k, _, _ in found] == ["junction", "junction"]
+    leave, reach = math.acos(1 / 3) / math.pi, math.acos(-1 / 3) / math.pi
+    assert abs(found[0][0] - leave) < t[1] - t[0] and abs(found[1][0] - reach) < t[1] - t[0]
+    two = np.where(t < 0.5, 0, 1)                             # two intervals: a jump smeared by the NLP
+    assert [k for _, k, _, _ in locate(t, v, s, -1.0, 1.0, eps, intervals=two)] == ["bang-bang"]
+    short = 0.3 + (t - 0.3) * (0.5 * JUMP_SPAN / 0.96)          # the run within JUMP_SPAN of the horizon
+    assert [k for _, k, _, _ in locate(short, v, s, -1.0, 1.0, eps, intervals=many)] == ["bang-bang"]

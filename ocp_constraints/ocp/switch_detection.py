@@ -57,6 +57,11 @@ SPLIT_JUNCTIONS = False
 JUNCTION_NEAR = 0.05
 # Switches of several quantities closer than this fraction of their interval are one switch.
 MERGE = 0.02
+# A free run of an input between its two bounds is one jump (smeared by the NLP) only if its points lie in at
+# most two mesh intervals or within this fraction of the horizon; else it is a continuous arc with a junction
+# at each end (minimum effort under a force limit, F = clip(a - b t, -U, U): a free arc over 0.8 of the horizon,
+# taken for a jump, left the inputs and multipliers out of their estimate there; scripts/refinement_holdouts.py).
+JUMP_SPAN = 0.01
 
 
 @dataclass(frozen=True)
@@ -133,7 +138,7 @@ def _crossing(t: np.ndarray, v: np.ndarray, level: float, i: int, j: int) -> flo
 
 
 def locate(t: np.ndarray, v: np.ndarray, s: np.ndarray, lower: float, upper: float,
-           eps: float, jumps: bool = True) -> list[tuple[float, str, int, int]]:
+           eps: float, jumps: bool = True, intervals: np.ndarray | None = None) -> list[tuple[float, str, int, int]]:
     """The switches between points ``t`` (in time order) of values ``v`` with activity ``s``:
     ``(where, kind, i, j)``, the switch between points ``i`` and ``j`` (their activities differ). A run
     of free points between the two bounds is one jump (bang-bang), however many points and intervals it
@@ -144,7 +149,10 @@ def locate(t: np.ndarray, v: np.ndarray, s: np.ndarray, lower: float, upper: flo
     (a UR5 elbow's speed limit, +3.15 rad/s held over 0.06-0.23 of the horizon, then 2.86, 2.23, ... down
     to -3.15 from 0.5 on: taken as a jump, its bracket was the whole free arc and its "effect", 5.6 rad/s,
     the speeds' estimate at every mesh); between two neighbouring points at opposite bounds, one junction
-    at their middle (the arc between them is not resolved). A free run next to one bound counts (two junctions) only if it leaves the
+    at their middle (the arc between them is not resolved). With ``intervals`` (each point's mesh interval), a
+    free run of a quantity that can jump is one jump only where the NLP can have smeared one: its points in at
+    most two intervals, or within :data:`JUMP_SPAN` of the horizon (a run of very short intervals at a jump);
+    a longer run is a continuous arc between the bounds, two junctions (:data:`JUMP_SPAN`). A free run next to one bound counts (two junctions) only if it leaves the
     bound by more than :data:`ARC` times ``eps`` (the activity threshold): else the bound is held loosely,
     IPOPT's ``mu / lambda`` where the bound's multiplier is small (on short intervals, whose multipliers
     scale with their length, and next to a switch, where the switching function vanishes)."""
@@ -161,8 +169,15 @@ def locate(t: np.ndarray, v: np.ndarray, s: np.ndarray, lower: float, upper: flo
             j += 1
         left = i - 1 if i > 0 else None
         right = j + 1 if j + 1 < n else None
-        if jumps and left is not None and right is not None and s[left] == -s[right]:
+        between = left is not None and right is not None and s[left] == -s[right]
+        smeared = (intervals is None or len(np.unique(intervals[i : j + 1])) <= 2
+                   or t[j] - t[i] <= JUMP_SPAN)
+        if jumps and between and smeared:
             found.append((_crossing(t, v, 0.5 * (lower + upper), left, right), "bang-bang", left, right))
+        elif between:                                  # a continuous arc from one bound to the other
+            run = list(range(i, j + 1))
+            found.append((_junction(t, v, lower if s[left] < 0 else upper, left, run), "junction", left, i))
+            found.append((_junction(t, v, lower if s[right] < 0 else upper, right, run[::-1]), "junction", j, right))
         elif np.abs(v[i : j + 1] - (lower if s[left if left is not None else right] < 0 else upper)).max() > ARC * eps:
             run = list(range(i, j + 1))
             if left is not None:
@@ -207,13 +222,16 @@ def detect_switches(solution) -> list[Switch]:
     mesh, frac = tr.scheme.mesh_fractions, tr.fractions
     D, T = np.asarray(solution.D, float), float(solution.t_final)
     first = frac[tr.offsets[:-1] + 1]              # each interval's first collocation point
+    # Each point's interval (a mesh point ends the interval before it, whose last collocation point it is).
+    interval_of = np.clip(np.searchsorted(mesh, frac, side="left") - 1, 0, tr.scheme.intervals - 1)
     out = []
     for name, v, lo, hi, states_only, continuous in bounded_quantities(solution):
         s, eps = activity(v, lo, hi)
         idx = np.arange(0 if states_only else 1, len(v))
         if len(np.unique(s[idx])) < 2:
             continue
-        for at, kind, i, j in locate(frac[idx], v[idx], s[idx], lo, hi, eps, jumps=not continuous):
+        for at, kind, i, j in locate(frac[idx], v[idx], s[idx], lo, hi, eps, jumps=not continuous,
+                                     intervals=interval_of[idx]):
             k = int(np.clip(np.searchsorted(mesh, at, side="right") - 1, 0, tr.scheme.intervals - 1))
             # Before the middle of the gap to the first collocation point: at the mesh point.
             inside = at - mesh[k] > 0.5 * (first[k] - mesh[k]) * (1.0 + 1e-9)
