@@ -19,6 +19,9 @@ every multiplier is a constraint force or moment, eq. 26, checked against Newton
   A = 2 W / T1^2, then 0 at the limit, then mirrored; tau = J_A alpha, J_A = M L^2 / 3; hinge force on the rod
   along the rod -M (L/2) omega^2, across it M (L/2) alpha, vertical M g; hinge moment -M g (L/2) e2.
 
+``bang_bang_asym``: bang_bang with -F_MAX <= F <= 2 F_MAX, the switch at T/3 (bang_bang's T/2 is a mesh point of
+the first mesh and of every even uniform one, whatever T).
+
 ``clipped_upper``: the clipped push with its upper bound only (F <= CLU_U): saturated at the start, one junction,
 then free; F = min(CLU_U, a - b t), (a, b) by fsolve on x(T) = D, v(T) = 0.
 """
@@ -72,6 +75,14 @@ def bang_bang_problem() -> oc.OptimalControlProblem:
     ocp.final({"block.x": BB_D, "block.vbar_x": 0.0})
     ocp.bound("F", -BB_FMAX, BB_FMAX)
     ocp.minimize_final_time()
+    return ocp
+
+
+def bang_bang_asym_problem() -> oc.OptimalControlProblem:
+    """bang_bang with -BB_FMAX <= F <= 2 BB_FMAX: the switch at T/3, not a mesh point of the first mesh (10 equal
+    intervals; bang_bang's T/2 is one, whatever T)."""
+    ocp = bang_bang_problem()
+    ocp.bound("F", -BB_FMAX, 2 * BB_FMAX)
     return ocp
 
 
@@ -176,6 +187,7 @@ class Reference:
     objective: float
     free_time: bool
     switches: tuple[float, ...]      # times (s) where the input jumps or kinks
+    jumps: bool = False              # whether the input (and a multiplier) jumps there (bang-bang)
 
 
 def _block_values(accel: tuple[PPoly, PPoly, PPoly], T: float) -> Callable:
@@ -197,7 +209,14 @@ def _block_values(accel: tuple[PPoly, PPoly, PPoly], T: float) -> Callable:
 def bang_bang_reference() -> Reference:
     T = BB_T
     accel = _integrated([0.0, T / 2, T], [[BB_FMAX / M], [-BB_FMAX / M]])
-    return Reference(_block_values(accel, T), T, T, True, (T / 2,))
+    return Reference(_block_values(accel, T), T, T, True, (T / 2,), jumps=True)
+
+
+def bang_bang_asym_reference() -> Reference:
+    # 2 F_MAX / M for t1, then -F_MAX / M for 2 t1 (same peak speed); D = 1.5 (2 F_MAX / M) t1^2.
+    t1 = math.sqrt(BB_D / (1.5 * 2 * BB_FMAX / M))
+    accel = _integrated([0.0, t1, 3 * t1], [[2 * BB_FMAX / M], [-BB_FMAX / M]])
+    return Reference(_block_values(accel, 3 * t1), 3 * t1, 3 * t1, True, (t1,), jumps=True)
 
 
 def clipped_reference() -> Reference:
@@ -237,6 +256,7 @@ def hinge_reference() -> Reference:
 
 
 PROBLEMS = {"bang_bang": (bang_bang_problem, bang_bang_reference),
+            "bang_bang_asym": (bang_bang_asym_problem, bang_bang_asym_reference),
             "clipped": (clipped_problem, clipped_reference),
             "hinge": (hinge_problem, hinge_reference),
             "clipped_upper": (clipped_upper_problem, clipped_upper_reference)}
