@@ -65,10 +65,9 @@ from .switch_detection import detect_switches, jump_windows, split_points, touch
 
 MIN_DEGREE = 3
 MAX_REFINEMENTS = 10
-# The pilot replaces the next mesh (one solve fewer) only if it has at most this many times its points:
-# its companion, and the solution returned, are then that much larger. Where solve time grows like
-# the points (maximal coordinates, long horizons), the saved solve pays for ~1.8x; 1.5 keeps a margin,
-# and a non-smooth solution (a few short intervals at a switch) is not traded for a globally finer mesh.
+# The pilot replaces the next mesh (one solve fewer) only if it has at most this many times its points (its companion
+# and the solution returned are then that much larger; where solve time grows like the points, the saved solve pays for
+# ~1.8x): 1.5 keeps a margin, and a non-smooth solution (short intervals at a switch) is not traded for a finer mesh.
 SNAP_POINTS = 1.5
 MIN_INTERVAL = 1e-6     # fraction of the horizon below which an interval is not split further
 ROUGH_MIN = 1e-3        # fraction of the horizon below which a rough interval is not halved (refine)
@@ -382,6 +381,7 @@ def solve_to_tolerance(problem, tolerance, method=None, ipopt_options: dict | No
         if new == scheme:
             record["message"] = (f"estimate above {tol:g} on intervals that cannot be refined further "
                                  f"(shorter than {MIN_INTERVAL:g} of the horizon at degree {MAX_DEGREE})")
+            _flag_nonsmooth(sol, tol, record, smoothness, windows)      # the jump windows, as on every other stop
             break
         solved = None
         pilot = companion.transcription.scheme
