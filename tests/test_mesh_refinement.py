@@ -192,3 +192,29 @@ def test_the_pilot_cuts_each_interval_as_asked_and_as_fine_compares_lengths_and_
     assert not as_fine(thirds, Radau(mesh=(0.0, 0.5, 1.0), degrees=(9, 9)))
     assert not as_fine(thirds, Radau(mesh=tuple(np.linspace(0.0, 1.0, 5)), degrees=(7, 6, 7, 7)))
     assert as_fine(thirds, thirds)
+
+
+def test_ctrl_c_while_a_mesh_is_built_keeps_the_last_complete_solution(monkeypatch):
+    """Ctrl-C outside IPOPT (a mesh's NLP being built, or its functions compiled: seconds on a heavy model) ends
+    the refinement with an OCPSolveError that keeps the last solution judged, its record saying so."""
+    import ocp_constraints.ocp.mesh_refinement as mr
+    from ocp_constraints.errors import OCPSolveError
+
+    builds, real = [], mr._build
+
+    def build(*args, **kwargs):
+        builds.append(args[1])
+        if len(builds) == 3:                # the first mesh and its pilot built and solved; then Ctrl-C
+            raise KeyboardInterrupt
+        return real(*args, **kwargs)
+
+    monkeypatch.setattr(mr, "_build", build)
+    problem = build_task("pendulum", "swing_up")[1]
+    with pytest.raises(OCPSolveError, match="interrupted during refinement 1, outside IPOPT") as caught:
+        mr.solve_to_tolerance(problem, 1e-9, Radau(4, degree=3))
+    kept = caught.value.solution
+    assert kept is not None and kept.success
+    # The first mesh's: the last solution judged (its estimate, from the pilot, is the record's).
+    assert kept.transcription.scheme.mesh_fractions.tolist() == builds[0].mesh_fractions.tolist()
+    assert kept.mesh_refinement["estimate"] == kept.mesh_refinement["history"][0]["estimate"]
+    assert "interrupted" in kept.mesh_refinement["message"]

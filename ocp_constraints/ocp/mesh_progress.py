@@ -74,3 +74,17 @@ def stall_message(history: list[dict], tol: float, quantities=("states", "multip
             f"more points would cost more than the last and are unlikely to reach {tol:.0e}. The last solution is "
             f"returned with its estimate (the lowest reached: {best:.1e}): accept a larger tolerance, or look for a "
             f"singular or non-unique arc, a path constraint's junction or a local optimum that moves with the mesh")
+
+
+def interrupted(record: dict, refinement: int, latest):
+    """Ctrl-C outside IPOPT (building or compiling a mesh's NLP; IPOPT stops itself at its next iteration and
+    raises with its last iterate): the :class:`~ocp_constraints.errors.OCPSolveError` that keeps ``latest``, the
+    last complete solution (None before the first), with the refinement's record saying where it stopped."""
+    from ..errors import OCPSolveError
+
+    record["message"] = (f"interrupted during refinement {refinement}, outside IPOPT (building or compiling a mesh's "
+                         "NLP); " + ("the last complete solution is kept in .solution" if latest is not None
+                                     else "no mesh was solved yet"))
+    if latest is not None:
+        latest.mesh_refinement = record
+    return OCPSolveError(record["message"], latest)

@@ -59,7 +59,7 @@ from ..errors import ModelError, OCPSolveError
 from .error_estimate import DECAY_LIMIT, UNRESOLVED_OBJECTIVE, UNRESOLVED_STATE, estimate_error, legendre_decay
 from .mesh_companions import (MAX_DEGREE, _degrees, _ends, as_fine, companion_of, finer, finer_at_hand,
                               pilot_of, pilot_pieces, reused_degree, split_pieces, uniform_step)
-from .mesh_progress import stall_message
+from .mesh_progress import interrupted, stall_message
 from .schemes import Radau
 from .switch_detection import detect_switches, jump_windows, split_points, touched
 
@@ -271,18 +271,16 @@ def solve_to_tolerance(problem, tolerance, method=None, ipopt_options: dict | No
         Refinements after the first solve; if the estimate is still above the tolerance then, the
         last solution is returned with ``mesh_refinement["met"]`` False and the reason.
 
-    Returns the :class:`~ocp_constraints.ocp.solution.OCPSolution` on the last mesh, with
-    ``mesh_refinement`` filled in (see the module's notes). A failed IPOPT solve raises
-    :class:`~ocp_constraints.errors.OCPSolveError` whose ``solution.mesh_refinement`` holds the
-    history so far.
-    """
+    Returns the :class:`~ocp_constraints.ocp.solution.OCPSolution` on the last mesh, with ``mesh_refinement`` filled
+    in (see the module's notes). A failed IPOPT solve, or Ctrl-C, raises :class:`~ocp_constraints.errors.OCPSolveError`
+    whose ``solution.mesh_refinement`` holds the history so far (:func:`.mesh_progress.interrupted`)."""
     tol = check_tolerance(tolerance)
     scheme = start_scheme(method)
     options = dict(ipopt_options or {})
     history: list[dict] = []
     record = {"tolerance": tol, "quantities_refined_on": list(GATED), "met": False, "history": history,
               "coordinates": problem.nlp_coordinates}
-    parents, warm, total, total_cpu, first, solved = None, warm_start, 0.0, 0.0, None, None
+    parents, warm, total, total_cpu, first, solved, sol = None, warm_start, 0.0, 0.0, None, None, None
     # Solutions solved lately: a finer one may judge a later mesh (:func:`finer`). Meshes grow, so a finer
     # one is among the last few; the older ones (each with its NLP and IPOPT instance) are let go.
     at_hand: list = []
@@ -318,6 +316,8 @@ def solve_to_tolerance(problem, tolerance, method=None, ipopt_options: dict | No
             if exc.solution is not None:
                 exc.solution.mesh_refinement = record
             raise
+        except KeyboardInterrupt:               # a build or a compile: keep the last complete solution
+            raise interrupted(record, r, sol) from None
         total += t_sol + t_comp
         total_cpu += c_sol + c_comp
         found = detect_switches(sol)        # bounds switching: jumps left out of the multipliers' estimate
