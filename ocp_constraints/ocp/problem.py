@@ -67,9 +67,9 @@ class OptimalControlProblem:
         slacks only at mesh points (:mod:`~ocp_constraints.ocp.condensed_transcription`).
     compiled
         Whether the NLP's element functions run as machine code (the system C compiler, cached on
-        disk by content): ``"auto"`` (default) where this solve's predicted saving exceeds the compile
-        time, or a copy is cached already; ``"always"``; ``"never"`` (CasADi's virtual machine)
-        (:mod:`~ocp_constraints.ocp.compiled_elements`).
+        disk by content): ``"auto"`` (default) once the time they would have saved in this problem's
+        solves so far and in this one exceeds their compile time, or where a copy is cached already;
+        ``"always"``; ``"never"`` (CasADi's virtual machine) (:mod:`~ocp_constraints.ocp.compiled_elements`).
     """
 
     model: Model
