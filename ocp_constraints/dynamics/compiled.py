@@ -37,7 +37,7 @@ import casadi as ca
 #: Flags for the cached libraries: -O1 compiles the QR and KKT code several times faster
 #: than -O2 at nearly the same speed of the result (measured on the bench scenes).
 FLAGS = ("-O1", "-fPIC", "-shared")
-#: ``-O0`` instead (``optimize=False``): for very large functions, whose ``-O1`` compile grows faster than
+#: ``-O0`` instead, for very large functions, whose ``-O1`` compile grows faster than
 #: their size (a UR5's Lagrangian Hessian at a collocation point, 70,855 operations: 44 s at -O1, 2.9 s at -O0,
 #: evaluating 18x and 5.7x faster than the virtual machine; ``python scripts/compiled_elements_calibration.py``).
 FLAGS_QUICK = ("-O0", "-fPIC", "-shared")
