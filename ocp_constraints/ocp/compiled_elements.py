@@ -91,16 +91,24 @@ class Size:
         return self.compiled * COMPILE_S[self.flags]
 
 
+@dataclass
+class _Seen:
+    """What a :class:`MachineCode` knows of one function: its size, content hash, the savings it missed, its copy."""
+
+    function: ca.Function            # kept here, so its id is not reused while the record lives
+    size: Size
+    key: str
+    missed: float = 0.0
+    copy: ca.Function | None = None
+
+
 class MachineCode:
     """The compiled copies of one problem's element functions, decided per function and kept for its later
     meshes and solves; ``seconds``: compile and load time spent by this object, ``compiled``: names compiled or loaded."""
 
     def __init__(self, policy: str):
         self.policy = check_policy(policy)
-        self._done: dict[int, tuple[ca.Function, ca.Function]] = {}    # id(function) -> (function, its copy)
-        self._rent: dict[int, tuple[ca.Function, float]] = {}            # id(function) -> (function, savings missed)
-        self._keys: dict[int, tuple[ca.Function, str]] = {}              # id(function) -> (function, content hash)
-        self._sizes: dict[int, tuple[ca.Function, Size]] = {}
+        self._seen: dict[int, _Seen] = {}
         self.seconds = 0.0
         self.compiled: list[str] = []
 
@@ -111,42 +119,29 @@ class MachineCode:
             return function
         if self.policy == "auto" and function.n_instructions() * instances * EVALUATIONS[kind] * VM_NS * 1e-9 < MIN_VM_SECONDS:
             return function
-        seen = self._done.get(id(function))
-        if seen is not None and seen[0] is function:
-            return seen[1]
-        size, key = self._size(function, kind), self._key(function)
-        cached = is_cached(function, size.with_jacobian, key=key, flags=size.flags)
-        missed = self._rent.get(id(function), (function, 0.0))[1]
+        seen = self._seen.get(id(function))
+        if seen is None or seen.function is not function:
+            # The content hash once: serializing a UR5 point Hessian takes ~10 ms, and the lookup comes every mesh.
+            seen = _Seen(function, Size.of(function, kind), hashlib.sha256(function.serialize().encode()).hexdigest())
+            self._seen[id(function)] = seen
+        if seen.copy is not None:
+            return seen.copy
+        size = seen.size
+        cached = is_cached(function, size.with_jacobian, key=seen.key, flags=size.flags)
         due = size.saving(instances, EVALUATIONS[kind])
-        if not (self.policy == "always" or cached or missed + due > size.price):      # ski rental
-            self._rent[id(function)] = (function, missed + due)
+        if not (self.policy == "always" or cached or seen.missed + due > size.price):      # ski rental
+            seen.missed += due
             return function
         started = time.perf_counter()
         if size.price >= 1.0 and not cached:        # a pause the user should know of
             print(f"note: compiling '{function.name()}' ({size.compiled:,} operations, about {size.price:.0f} s) to machine "
                   f"code for this and later solves (OptimalControlProblem.compiled = 'never' turns this off)", file=sys.stderr)
-        copy = compiled(function, size.with_jacobian, key=key, flags=size.flags,
-                        what=f"'{function.name()}' ({size.compiled:,} operations)")
+        seen.copy = compiled(function, size.with_jacobian, key=seen.key, flags=size.flags,
+                             what=f"'{function.name()}' ({size.compiled:,} operations)")
         self.seconds += time.perf_counter() - started
-        if copy is not function:
+        if seen.copy is not function:
             self.compiled.append(function.name())
-        self._done[id(function)] = (function, copy)    # the function is kept with it: its id is not reused
-        return copy
-
-    def _size(self, function: ca.Function, kind: str) -> Size:
-        seen = self._sizes.get(id(function))
-        if seen is None or seen[0] is not function:
-            seen = (function, Size.of(function, kind))
-            self._sizes[id(function)] = seen
-        return seen[1]
-
-    def _key(self, function: ca.Function) -> str:
-        """The function's content hash, computed once (serializing a UR5 point Hessian takes ~10 ms, every mesh)."""
-        seen = self._keys.get(id(function))
-        if seen is None or seen[0] is not function:
-            seen = (function, hashlib.sha256(function.serialize().encode()).hexdigest())
-            self._keys[id(function)] = seen
-        return seen[1]
+        return seen.copy
 
 
 def machine_code(owner, policy: str) -> MachineCode:

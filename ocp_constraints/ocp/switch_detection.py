@@ -174,11 +174,9 @@ def locate(t: np.ndarray, v: np.ndarray, s: np.ndarray, lower: float, upper: flo
                    or t[j] - t[i] <= JUMP_SPAN)
         if jumps and between and smeared:
             found.append((_crossing(t, v, 0.5 * (lower + upper), left, right), "bang-bang", left, right))
-        elif between:                                  # a continuous arc from one bound to the other
-            run = list(range(i, j + 1))
-            found.append((_junction(t, v, lower if s[left] < 0 else upper, left, run), "junction", left, i))
-            found.append((_junction(t, v, lower if s[right] < 0 else upper, right, run[::-1]), "junction", j, right))
-        elif np.abs(v[i : j + 1] - (lower if s[left if left is not None else right] < 0 else upper)).max() > ARC * eps:
+        # a continuous arc from one bound to the other, or a run that leaves its one bound for real: its junctions
+        elif between or np.abs(v[i : j + 1] - (lower if s[left if left is not None else right] < 0
+                                                else upper)).max() > ARC * eps:
             run = list(range(i, j + 1))
             if left is not None:
                 found.append((_junction(t, v, lower if s[left] < 0 else upper, left, run), "junction", left, i))
