@@ -95,7 +95,7 @@ def test_auto_compiles_once_the_savings_missed_reach_the_compile_time(tmp_path, 
     problem = _swing_up("never")
     problem.transcription(oc.Radau(4, degree=3))
     f = next(iter(v for v in problem._element_derivatives.values() if isinstance(v, dict) and v["hess"]))["hess"][0]
-    e, size = compiled_elements.EVALUATIONS["hess"], compiled_elements.Size.of(f, "hess")
+    e, size = compiled_elements.EVALUATIONS["hess"], compiled_elements.Size.of(f)
     price = f.n_instructions() * compiled_elements.COMPILE_S[size.flags]     # the docstring's n COMPILE_S
     saving_one = f.n_instructions() * e * (compiled_elements.VM_NS - compiled_elements.COMPILED_NS[size.flags]) * 1e-9
     K = int(round(0.6 * price / saving_one))

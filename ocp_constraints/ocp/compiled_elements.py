@@ -12,12 +12,11 @@ Compiling costs seconds, so the ``"auto"`` policy compiles a function when the t
 saves is predicted to exceed its compile time, from its operation count ``n``, its instances ``K``
 and the evaluations an IPOPT solve typically makes (:data:`EVALUATIONS`):
 
-    saving  = n K E (VM_NS - COMPILED_NS[flags]) 1e-9 s,   compile = n_c COMPILE_S[flags] s
+    saving  = n K E (VM_NS - COMPILED_NS[flags]) 1e-9 s,   compile = n COMPILE_S[flags] s
 
-(``n_c``: the operations compiled, :class:`Size`: an element kind's rows and cost are compiled with
-their Jacobian, which nlpsol needs to differentiate the NLP's graph at its setup),
-
-counting the savings the earlier solves of the same problem would have had (their meshes' ``K``)
+(:class:`Size`; the function alone is compiled: the NLP's derivatives are the assembled ones of
+:mod:`.nlp_assembly`, and nlpsol is told not to differentiate the NLP's graph itself,
+:attr:`.nlp_assembly.BlockNLP.derivative_options`), counting the savings the earlier solves of the same problem would have had (their meshes' ``K``)
 with this one's: the rule of ski rental, rent (the virtual machine) until the rent paid and due
 reaches the price (the compile), then buy; it never spends more than twice the better of the two
 choices made in hindsight, and a refinement, whose meshes grow and whose solves are many, compiles
@@ -65,30 +64,27 @@ def check_policy(policy: str) -> str:
 
 @dataclass(frozen=True)
 class Size:
-    """What compiling one function involves: the operations evaluated (the function's), the operations
-    compiled (with, for an element kind's rows and cost, their Jacobian: nlpsol differentiates the NLP's
-    graph at setup, and a compiled function without derivatives would stop it), and the flags
-    (``-O1`` up to :data:`O1_MAX_OPERATIONS` operations in one function, else ``-O0``)."""
+    """What compiling one function involves: its operations and the flags (``-O1`` up to
+    :data:`O1_MAX_OPERATIONS` operations, else ``-O0``). The function alone is compiled, without its
+    Jacobian: nothing evaluates that (the NLP's derivatives are assembled, :mod:`.nlp_assembly`), and
+    compiling it doubled the price of an element kind's rows (UR5 point: 2.6x its operations)."""
 
-    evaluated: int
-    compiled: int
+    operations: int
     flags: tuple[str, ...]
-    with_jacobian: bool
 
     @classmethod
-    def of(cls, function: ca.Function, kind: str) -> Size:
+    def of(cls, function: ca.Function) -> Size:
         n = function.n_instructions()
-        jac = function.jacobian().n_instructions() if kind == "function" else 0
-        return cls(n, n + jac, FLAGS if max(n, jac) <= O1_MAX_OPERATIONS else FLAGS_QUICK, kind == "function")
+        return cls(n, FLAGS if n <= O1_MAX_OPERATIONS else FLAGS_QUICK)
 
     def saving(self, instances: int, evaluations: int) -> float:
         """Seconds the compiled copy saves over ``evaluations`` evaluations of ``instances`` instances."""
-        return self.evaluated * instances * evaluations * (VM_NS - COMPILED_NS[self.flags]) * 1e-9
+        return self.operations * instances * evaluations * (VM_NS - COMPILED_NS[self.flags]) * 1e-9
 
     @property
     def price(self) -> float:
         """Predicted compile time (s)."""
-        return self.compiled * COMPILE_S[self.flags]
+        return self.operations * COMPILE_S[self.flags]
 
 
 @dataclass
@@ -122,22 +118,22 @@ class MachineCode:
         seen = self._seen.get(id(function))
         if seen is None or seen.function is not function:
             # The content hash once: serializing a UR5 point Hessian takes ~10 ms, and the lookup comes every mesh.
-            seen = _Seen(function, Size.of(function, kind), hashlib.sha256(function.serialize().encode()).hexdigest())
+            seen = _Seen(function, Size.of(function), hashlib.sha256(function.serialize().encode()).hexdigest())
             self._seen[id(function)] = seen
         if seen.copy is not None:
             return seen.copy
         size = seen.size
-        cached = is_cached(function, size.with_jacobian, key=seen.key, flags=size.flags)
+        cached = is_cached(function, key=seen.key, flags=size.flags)
         due = size.saving(instances, EVALUATIONS[kind])
         if not (self.policy == "always" or cached or seen.missed + due > size.price):      # ski rental
             seen.missed += due
             return function
         started = time.perf_counter()
         if size.price >= 1.0 and not cached:        # a pause the user should know of
-            print(f"note: compiling '{function.name()}' ({size.compiled:,} operations, about {size.price:.0f} s) to machine "
+            print(f"note: compiling '{function.name()}' ({size.operations:,} operations, about {size.price:.0f} s) to machine "
                   f"code for this and later solves (OptimalControlProblem.compiled = 'never' turns this off)", file=sys.stderr)
-        seen.copy = compiled(function, size.with_jacobian, key=seen.key, flags=size.flags,
-                             what=f"'{function.name()}' ({size.compiled:,} operations)")
+        seen.copy = compiled(function, key=seen.key, flags=size.flags,
+                             what=f"'{function.name()}' ({size.operations:,} operations)")
         self.seconds += time.perf_counter() - started
         if seen.copy is not function:
             self.compiled.append(function.name())

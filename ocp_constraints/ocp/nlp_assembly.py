@@ -204,8 +204,13 @@ class BlockNLP:
 
     @property
     def derivative_options(self) -> dict:
-        """The ``nlpsol`` options that hand IPOPT the assembled derivatives."""
-        return {"grad_f": self.grad_f, "jac_g": self.jac_g, "hess_lag": self.hess_lag}
+        """The ``nlpsol`` options that hand IPOPT the assembled derivatives, and keep nlpsol from
+        differentiating the NLP's graph itself: by default it builds the Lagrangian's gradient
+        (``nlp_grad``) at setup, for ``lam_p``; this NLP has no parameters and IPOPT returns ``lam_x``, so
+        nothing evaluates it, yet building it took ~1 ms per NLP (swing-up, 207 points) and needed every
+        compiled element function to carry its Jacobian (:mod:`.compiled_elements`)."""
+        return {"grad_f": self.grad_f, "jac_g": self.jac_g, "hess_lag": self.hess_lag,
+                "no_nlp_grad": True, "calc_lam_p": False}
 
     def rows(self, name: str, instance: int = 0) -> int:
         """First constraint row of ``instance`` of element ``name``."""
