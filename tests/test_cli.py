@@ -153,3 +153,34 @@ def test_failed_simulation_writes_partial_results_marked_unsuccessful(tmp_path):
     assert summary["success"] is False and "singular" in summary["message"]
     assert summary["t_reached"] < 2.0
     assert math.isfinite(summary["max_constraint_residual"]["velocity"])
+
+
+def test_solve_hands_ipopt_options_to_every_solve_and_records_them(tmp_path, capsys):
+    """--ipopt NAME=VALUE reaches IPOPT (two iterations allowed: it stops there, exit 1, the status named) and
+    summary.json records it as the option given (an integer stays an integer)."""
+    code = main(["solve", "pendulum", "--intervals", "10", "--ipopt", "max_iter=2", "--out", str(tmp_path), "--no-plots"])
+    assert code == 1
+    assert "Maximum_Iterations_Exceeded" in capsys.readouterr().err
+    summary = json.loads((tmp_path / "summary.json").read_text())
+    assert summary["solver"]["ipopt_options"] == {"ipopt.max_iter": 2} and summary["iterations"] == 2
+    assert summary["success"] is False
+
+
+@pytest.mark.parametrize("given, named", [("max_iter", "NAME=VALUE"), ("no_such_option=1", "'ipopt.no_such_option'"),
+                                          ("max_iter=-5", "'ipopt.max_iter': -5"), ("tol=abc", "'ipopt.tol': 'abc'")])
+def test_solve_refuses_a_malformed_or_unknown_ipopt_option_naming_it(given, named, capsys):
+    """Bad input, exit 2 and one line naming the option (CasADi refuses unknown names and IPOPT bad values when
+    the solver is made: a raw RuntimeError before)."""
+    assert main(["solve", "pendulum", "--intervals", "10", "--ipopt", given]) == 2
+    err = capsys.readouterr().err
+    assert named in err and "Traceback" not in err
+
+
+def test_an_option_that_is_not_nlpsols_is_refused_by_name_in_the_api():
+    import ocp_constraints as oc
+    from ocp_constraints.errors import ModelError
+    from ocp_constraints.scenes.registry import build_task
+
+    problem = build_task("pendulum", None)[1]
+    with pytest.raises(ModelError, match="'foo' is not an option of CasADi's nlpsol.*'ipopt.foo'"):
+        problem.solve(oc.Radau(5), {"foo": 1})

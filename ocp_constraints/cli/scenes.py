@@ -50,6 +50,9 @@ def add_scene_parsers(sub) -> None:
                    help="hp mesh refinement until the estimated error is at most TOL (states in SI units, "
                         "multipliers relative to the largest load), starting from --intervals N (default 10 "
                         "here) of --degree D (default 3); summary.json gets the final mesh, the estimates and the history")
+    o.add_argument("--ipopt", action="append", default=[], metavar="NAME=VALUE",
+                   help="an IPOPT option for every solve, e.g. --ipopt max_iter=500 or --ipopt compl_inf_tol=1e-13 (repeatable; "
+                        "recorded in summary.json; names at https://coin-or.github.io/Ipopt/OPTIONS.html)")
     o.add_argument("--coordinates", default="auto", choices=["auto", "maximal", "joint", "condensed"],
                    help="NLP coordinates: every body's (maximal) or the joints' (joint: bodies on revolute, "
                         "prismatic and weld joints placed by their joint coordinates; same results files); "
@@ -103,6 +106,25 @@ def _simulate(args) -> int:
     return 0
 
 
+def ipopt_arguments(pairs: list[str]) -> dict:
+    """``--ipopt NAME=VALUE`` pairs as nlpsol options (``ipopt.NAME``): integers and numbers as such, other values as text."""
+    from ..errors import UsageError
+
+    out = {}
+    for pair in pairs:
+        name, sep, value = (part.strip() for part in pair.partition("="))
+        if not (sep and name and value):
+            raise UsageError(f"--ipopt {pair!r}: give NAME=VALUE, e.g. --ipopt max_iter=500 or --ipopt compl_inf_tol=1e-13")
+        for kind in (int, float):
+            try:
+                value = kind(value)
+                break
+            except ValueError:
+                continue
+        out[name if name.startswith("ipopt.") else f"ipopt.{name}"] = value
+    return out
+
+
 def _solve(args) -> int:
     from ..errors import OCPSolveError
     from ..scenes.registry import build_task, parse_param_arguments
@@ -120,12 +142,13 @@ def _solve(args) -> int:
                          "Drop --scheme, or drop --tolerance")
     if tolerance is not None and not 0 < tolerance < float("inf"):
         raise UsageError(f"--tolerance must be a positive number such as 1e-6, got {tolerance!r}")
+    ipopt_options = ipopt_arguments(getattr(args, "ipopt", []))
     task, problem = build_task(args.scene, args.task, parse_param_arguments(args.param))
     problem.coordinates = getattr(args, "coordinates", "auto")
     intervals = args.intervals if args.intervals is not None else (50 if tolerance is None else 10)
     method = scheme_from_name(args.scheme, intervals, 3 if args.degree is None else args.degree)
     try:
-        sol, summary = run_optimal_control(problem, args.scene, task, method, args.out, plots=not args.no_plots,
+        sol, summary = run_optimal_control(problem, args.scene, task, method, args.out, ipopt_options, plots=not args.no_plots,
                                            reintegrate=args.reintegrate, starts=getattr(args, "starts", 1),
                                            seed=getattr(args, "seed", 0), tolerance=tolerance)
     except OCPSolveError as exc:

@@ -40,7 +40,7 @@ from .interpolation import interpolation_matrix
 from .layout import Layout
 from .progress import IterationMonitor, stop_on_signals
 from .solution import OCPSolution
-from ..errors import OCPSolveError
+from ..errors import ModelError, OCPSolveError
 from ..mechanics.state import project_positions
 from .schemes import Scheme
 from .transcription_elements import ElementKinds
@@ -233,8 +233,14 @@ class Transcription(ElementKinds):
         started = time.perf_counter()
         if self._solver is None or opts != self._solver_options:
             self._monitor = IterationMonitor(self.nlp["x"].numel(), self.nlp["g"].numel())
-            self._solver = ca.nlpsol("ocp", "ipopt", self.nlp,
-                                     {**opts, **self.block.derivative_options, "iteration_callback": self._monitor})
+            try:
+                self._solver = ca.nlpsol("ocp", "ipopt", self.nlp,
+                                         {**opts, **self.block.derivative_options, "iteration_callback": self._monitor})
+            except RuntimeError as exc:
+                refused = _refused_options(str(exc), ipopt_options)
+                if refused is None:
+                    raise
+                raise refused from None
             self._solver_options = opts
         setup = time.perf_counter() - started
         x0 = self.initial_guess() if warm_start is None else self.guess_from(warm_start)
@@ -251,6 +257,8 @@ class Transcription(ElementKinds):
         solution = self.completed(OCPSolution.from_vector(
             self, np.asarray(res["x"]).ravel(), stats, float(res["f"]),
             {"transcription": self.build_time, "solver_setup": setup, "solve": solve_time}))
+        if stats.get("return_status") == "Invalid_Option":     # its iteration count is then not set (-1064956304)
+            raise _refused_options("Invalid options were detected by Ipopt", ipopt_options)
         if not stats.get("success", False):
             raise OCPSolveError(
                 f"IPOPT did not solve '{self.problem.model.name}' with {self.scheme.label} "
@@ -259,6 +267,23 @@ class Transcription(ElementKinds):
                 solution,
             )
         return solution
+
+
+def _refused_options(said: str, ipopt_options: dict) -> ModelError | None:
+    """The :class:`ModelError` for options that CasADi or IPOPT refused (``said``: their message), naming them;
+    None if ``said`` is about something else. IPOPT prints which value it refused, and its valid range, itself."""
+    given = {k: v for k, v in ipopt_options.items() if DEFAULT_IPOPT.get(k) != v}
+    where = "IPOPT's options: https://coin-or.github.io/Ipopt/OPTIONS.html, passed as 'ipopt.<name>'"
+    if "No such IPOPT option:" in said:
+        name = said.split("No such IPOPT option:", 1)[1].strip().splitlines()[0]
+        return ModelError(f"'ipopt.{name}' is not an IPOPT option ({where})")
+    if "Unknown option:" in said:
+        name = said.split("Unknown option:", 1)[1].strip().splitlines()[0]
+        return ModelError(f"'{name}' is not an option of CasADi's nlpsol; an IPOPT option is passed as 'ipopt.{name}' ({where})")
+    if "Invalid options were detected by Ipopt" in said or "type mismatch" in said:
+        return ModelError(f"IPOPT refused a value among the options given, {given}: of the wrong type or out of its "
+                          f"range (IPOPT prints the value it refuses, with its range; {where})")
+    return None
 
 
 def transcribe(problem, scheme: Scheme) -> Transcription:
