@@ -281,8 +281,9 @@ def _refused_options(said: str, ipopt_options: dict) -> ModelError | None:
         name = said.split("Unknown option:", 1)[1].strip().splitlines()[0]
         return ModelError(f"'{name}' is not an option of CasADi's nlpsol; an IPOPT option is passed as 'ipopt.{name}' ({where})")
     if "Invalid options were detected by Ipopt" in said or "type mismatch" in said:
-        return ModelError(f"IPOPT refused a value among the options given, {given}: of the wrong type or out of its "
-                          f"range (IPOPT prints the value it refuses, with its range; {where})")
+        return ModelError(f"IPOPT refused a value among the options given, {given}: of the wrong type, out of its "
+                          f"range, or not in this build (the linear solvers ma27/ma57/pardiso need their own libraries; "
+                          f"MUMPS is built in). IPOPT prints a value it refuses, with its range; {where}")
     return None
 
 
