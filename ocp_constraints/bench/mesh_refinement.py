@@ -23,7 +23,9 @@ beside it (``.png``).
 from __future__ import annotations
 
 import argparse
+import os
 import statistics
+import sys
 import time
 from pathlib import Path
 
@@ -300,10 +302,14 @@ def _ratio(true: float, estimate: float) -> str:
     return f"{r:.2f}" + ("" if 0.1 <= r <= 1.0 else " (outside [0.1, 1])")
 
 
-def markdown(swing: list[dict], fixed: list[dict], switching: list[dict], runs: int, seconds: float) -> str:
-    out = [f"# Mesh refinement to a tolerance (issue 19)\n\n`python -m ocp_constraints.bench.mesh_refinement --runs {runs}` "
+def markdown(swing: list[dict], fixed: list[dict], switching: list[dict], runs: int, seconds: float,
+             command: str = "", load: float | None = None) -> str:
+    """The report; ``command``: the arguments it was run with, ``load``: the 1-minute load average when it started."""
+    machine = ("" if load is None else f"; load average {load:.1f} at the start on {os.cpu_count()} cores: above about 1, "
+               "other jobs share the cores and wall times are inflated")
+    out = [f"# Mesh refinement to a tolerance (issue 19)\n\n`python -m ocp_constraints.bench.mesh_refinement {command or f'--runs {runs}'}` "
            f"({seconds / 60:.1f} min, {time.strftime('%Y-%m-%d %H:%M')}; times are medians of {runs} runs of the whole "
-           f"`problem.solve`, wall and CPU; the machine's 2 cores were shared with other jobs, so wall times are inflated).\n\n"
+           f"`problem.solve`, wall and CPU{machine}).\n\n"
            "## Swing-up: estimates vs true errors (Pontryagin reference)\n\n"
            "Start: Radau 3, 10 intervals. Error = max(states abs., multipliers rel. to the largest load); "
            "ratio = true / estimate (the estimate is trusted when it lies in [0.1, 1]). The cheapest fixed mesh is "
@@ -379,11 +385,12 @@ def main(argv=None) -> int:
     ap.add_argument("--switching-only", nargs="*", default=None, metavar="CASE",
                     help=f"only the switching table, for these cases (default all: {', '.join(SWITCHING)})")
     args = ap.parse_args(argv)
-    started = time.perf_counter()
+    started, load = time.perf_counter(), os.getloadavg()[0]
     swing, fixed = swing_up_table(args.runs, coordinates=args.coordinates) if args.switching_only is None else ([], [])
     cases = tuple(args.switching_only or SWITCHING)
     switching = [] if args.skip_switching else switching_table(args.runs, cases, coordinates=args.coordinates)
-    text = markdown(swing, fixed, switching, args.runs, time.perf_counter() - started)
+    text = markdown(swing, fixed, switching, args.runs, time.perf_counter() - started,
+                    " ".join(sys.argv[1:] if argv is None else argv), load)
     path = Path(args.out)
     path.parent.mkdir(parents=True, exist_ok=True)
     tmp = path.with_suffix(".tmp")

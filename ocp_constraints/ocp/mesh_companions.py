@@ -33,7 +33,7 @@ def pilot_of(scheme: Radau, pieces=None) -> Radau:
     solves, not four (the solves' fixed costs, transcription and IPOPT setup, are most of a solve
     at these sizes: swing-up in joint coordinates, 54-62% of the refinement's CPU in transcriptions).
 
-    ``pieces[k]`` (default 2): interval ``k`` cut into that many equal pieces (:func:`.error_estimate.pieces_needed`:
+    ``pieces[k]`` (default 2): interval ``k`` cut into that many equal pieces (:func:`pilot_pieces`:
     where the first solution's own Legendre coefficients predict that halving at :data:`MAX_DEGREE` will not
     meet the tolerance, the pilot is cut as the next mesh would be, so that it can be the next mesh)."""
     mesh = scheme.mesh_fractions
@@ -130,7 +130,7 @@ def pilot_pieces(sol, tol: float) -> np.ndarray:
     halving at :data:`MAX_DEGREE` would not bring below ``tol`` (:func:`split_pieces` asks for more), in as
     many pieces as that asks for. Then the next mesh, from the pilot's estimate, asks for no more than the
     pilot has (:func:`.mesh_companions.as_fine`) and the pilot is the next solution: at a tight tolerance
-    three solves instead of four (swing-up at 1e-8: the first mesh, a pilot of 30 intervals, its
+    three solves instead of four (swing-up at 1e-8: the first mesh, a pilot of 37 intervals, its
     companion; was the first mesh, a pilot of 20, 33 intervals, their companion). A prediction too high
     costs a larger pilot; too low, the fourth solve as before. The estimate is never the prediction. Where
     the coefficients do not fall on every interval (the first mesh does not resolve the solution), every

@@ -8,7 +8,7 @@ it does not, the solution and its companion are not converging together (a singu
 non-unique arc, a path constraint's junction the mesh cannot resolve, a local optimum that moves
 with the mesh), and every further refinement costs more than the last for little gain: the
 four-bar of the suite at 1e-4 went 883 -> 1,709 points for an estimate 1.5e-2 -> 1.1e-2, then
-3,361 points and 470 s of CPU for 2.3e-2; it stops there now, where before this rule it went on
+3,361 points and about 550 s of CPU for 2.3e-2; it stops there now, where before this rule it went on
 for as long as ``max_refinements`` (10) let it.
 
 Refinement stops at the second such refinement, or at the first that made no progress at all (one

@@ -73,7 +73,7 @@ MIN_INTERVAL = 1e-6     # fraction of the horizon below which an interval is not
 ROUGH_MIN = 1e-3        # fraction of the horizon below which a rough interval is not halved (refine)
 GATED = ("states", "multipliers")
 START = {"intervals": 10, "degree": 3}
-# A warm start begins near its optimum. mu_init 1e-8 spares IPOPT driving the barrier down from 0.1 (swing-up 6 -> 4
+# A warm start begins near its optimum. mu_init 1e-8 spares IPOPT driving the barrier down from 0.1 (swing-up 6 -> 3-4
 # iterations; acrobot 219 -> 205 over a refinement; same meshes: python scripts/mesh_refinement_warm_mu.py --suite).
 # bound_push / bound_frac 1e-9 (IPOPT: 1e-2) keep the start on its variables' bounds: along an arc on a state bound
 # the default moved every point 0.01 off it (Bryson-Denham, examples/bryson_denham.py: 57-72 iterations per warm

@@ -22,6 +22,7 @@ from __future__ import annotations
 import multiprocessing
 import os
 import signal
+import threading
 from collections.abc import Callable
 
 from .forked import processes
@@ -71,6 +72,9 @@ class DrawingProcess:
         self._request, self._sent = None, False       # the call handed over by submit(), and whether it was sent
         if os.name != "posix" or "fork" not in multiprocessing.get_all_start_methods():
             self.error = "fork is not available"
+            return
+        if threading.active_count() > 1:        # a fork copies the other threads' memory mid-work, not the threads
+            self.error = "another thread runs in this process"
             return
         if processes(2, per_process=1) < 2:     # no idle core (or OCP_OUTPUT_PROCESSES=1): it would only share ours
             self.error = "no idle CPU for a drawing process"
