@@ -12,13 +12,12 @@
    same accuracy. These have no closed-form reference: errors are against fine solutions on other
    meshes (named in the table), so they measure the discretization, not the equations.
 
-Errors are measured the same way for every row (:func:`~ocp_constraints.ocp.error_estimate.compare`):
-states (coordinates and speeds) absolute in SI units, multipliers relative to the reference's
-largest load, both the largest over a grid of 4 times per collocation point in normalized time,
-multipliers without ``t = 0``. Times: wall (``time.perf_counter``) and CPU (``time.process_time``)
-of the whole ``problem.solve`` call, transcription and guesses included. Benchmarks measure this
-machine; they are not tests. Writes the table (``--out``) and the swing-up's work-precision plot
-beside it (``.png``).
+Errors are measured the same way for every row (:func:`~ocp_constraints.ocp.error_estimate.compare`): states
+(coordinates and speeds) absolute in SI units, multipliers relative to the reference's largest load, both the
+largest over a grid of 4 times per collocation point in normalized time, multipliers without ``t = 0``. Times:
+wall (``time.perf_counter``) and CPU (``time.process_time``) of the whole ``problem.solve`` call, transcription
+and guesses included. Benchmarks measure this machine; they are not tests. Writes the table (``--out``) and the
+swing-up's work-precision plot beside it (``.png``).
 """
 from __future__ import annotations
 
@@ -302,14 +301,11 @@ def _ratio(true: float, estimate: float) -> str:
     return f"{r:.2f}" + ("" if 0.1 <= r <= 1.0 else " (outside [0.1, 1])")
 
 
-def markdown(swing: list[dict], fixed: list[dict], switching: list[dict], runs: int, seconds: float,
-             command: str = "", load: float | None = None) -> str:
-    """The report; ``command``: the arguments it was run with, ``load``: the 1-minute load average when it started."""
-    machine = ("" if load is None else f"; load average {load:.1f} at the start on {os.cpu_count()} cores: above about 1, "
-               "other jobs share the cores and wall times are inflated")
-    out = [f"# Mesh refinement to a tolerance (issue 19)\n\n`python -m ocp_constraints.bench.mesh_refinement {command or f'--runs {runs}'}` "
-           f"({seconds / 60:.1f} min, {time.strftime('%Y-%m-%d %H:%M')}; times are medians of {runs} runs of the whole "
-           f"`problem.solve`, wall and CPU{machine}).\n\n"
+def markdown(swing: list[dict], fixed: list[dict], switching: list[dict], runs: int, seconds: float, command: str,
+             load: float) -> str:      # command: the arguments it was run with; load: the 1-minute load average then
+    out = [f"# Mesh refinement to a tolerance (issue 19)\n\n`python -m ocp_constraints.bench.mesh_refinement {command}` "
+           f"({seconds / 60:.1f} min, {time.strftime('%Y-%m-%d %H:%M')}; times are medians of {runs} runs of the whole `problem.solve`, "
+           f"wall and CPU; load average {load:.1f} at the start on {os.cpu_count()} cores: above 1, wall times are inflated).\n\n"
            "## Swing-up: estimates vs true errors (Pontryagin reference)\n\n"
            "Start: Radau 3, 10 intervals. Error = max(states abs., multipliers rel. to the largest load); "
            "ratio = true / estimate (the estimate is trusted when it lies in [0.1, 1]). The cheapest fixed mesh is "
@@ -387,15 +383,13 @@ def main(argv=None) -> int:
     args = ap.parse_args(argv)
     started, load = time.perf_counter(), os.getloadavg()[0]
     swing, fixed = swing_up_table(args.runs, coordinates=args.coordinates) if args.switching_only is None else ([], [])
-    cases = tuple(args.switching_only or SWITCHING)
-    switching = [] if args.skip_switching else switching_table(args.runs, cases, coordinates=args.coordinates)
-    text = markdown(swing, fixed, switching, args.runs, time.perf_counter() - started,
-                    " ".join(sys.argv[1:] if argv is None else argv), load)
+    switching = [] if args.skip_switching else switching_table(args.runs, tuple(args.switching_only or SWITCHING),
+                                                               coordinates=args.coordinates)
+    text = markdown(swing, fixed, switching, args.runs, time.perf_counter() - started, " ".join(argv or sys.argv[1:]), load)
     path = Path(args.out)
     path.parent.mkdir(parents=True, exist_ok=True)
-    tmp = path.with_suffix(".tmp")
-    tmp.write_text(text)
-    tmp.replace(path)
+    path.with_suffix(".tmp").write_text(text)
+    path.with_suffix(".tmp").replace(path)      # whole or not at all
     if swing:
         plot(path.with_suffix(".png"), swing, fixed)
     print(text)
