@@ -601,6 +601,11 @@ CATALOGUE: dict[str, tuple[str, str, list[Case]]] = {
         Case("solve pendulum --task nope", lambda: cli("solve", "pendulum", "--task", "nope"), 2, ("no task 'nope'", "swing_up")),
         Case("simulate pendulum --param mass=-1", lambda: cli("simulate", "pendulum", "--param", "mass=-1"), 2,
              ("body 'rod'", "mass must be positive")),
+        Case("solve pendulum --ipopt no_such_option=1", lambda: cli("solve", "pendulum", "--intervals", "5", "--ipopt",
+                                                                   "no_such_option=1"), 2,
+             ("'ipopt.no_such_option' is not an IPOPT option",)),
+        Case("solve pendulum --ipopt max_iter=-5", lambda: cli("solve", "pendulum", "--intervals", "5", "--ipopt",
+                                                              "max_iter=-5"), 2, ("IPOPT refused a value", "'ipopt.max_iter': -5")),
     ]),
     "model_building": ("bodies and names", _N, [
         Case("add_body with a non-symmetric inertia", lambda: oc.Model("m").add_body("b", 1.0, [[1, 0.5, 0], [0, 1, 0], [0, 0, 1]]),
