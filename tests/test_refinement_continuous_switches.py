@@ -71,3 +71,20 @@ def test_an_input_crossing_between_its_bounds_over_many_intervals_is_an_arc_not_
     assert [k for _, k, _, _ in locate(t, v, s, -1.0, 1.0, eps, intervals=two)] == ["bang-bang"]
     short = 0.3 + (t - 0.3) * (0.5 * JUMP_SPAN / 0.96)          # the run within JUMP_SPAN of the horizon
     assert [k for _, k, _, _ in locate(short, v, s, -1.0, 1.0, eps, intervals=many)] == ["bang-bang"]
+
+
+def test_an_inputs_junction_is_found_where_its_line_meets_the_bound_through_the_points_counted_active():
+    """F = min(U, a - b t) at points 0.01 apart: the first two points past the junction (t1 = 0.3) are within the
+    activity threshold of U, so they count as active. The line through the free points meets U at t1 exactly;
+    only ``through_active`` (an input's bound) may put the junction there, behind the last "active" point, with
+    the two points around it as its bracket. Without it the junction is clamped to the last "active" point, two
+    points late."""
+    U, b, t1 = 5.4, 0.5, 0.3
+    t = np.round(np.arange(0.0, 1.0001, 0.01), 12)
+    v = np.minimum(U, U - b * (t - t1))
+    s, eps = activity(v, -np.inf, U)
+    assert s[31] == 1 and s[32] == 1 and s[33] == 0          # 0.31, 0.32 within the threshold: "active"
+    [(at, kind, i, j)] = locate(t, v, s, -np.inf, U, eps, jumps=True, through_active=True)
+    assert kind == "junction" and abs(at - t1) < 1e-12 and t[i] <= at <= t[j] and j == i + 1
+    [(late, _, _, _)] = locate(t, v, s, -np.inf, U, eps, jumps=True)
+    assert late >= 0.32

@@ -70,7 +70,8 @@ class Switch:
 
     ``fraction``: the located switch in normalized time ``[0, 1]``; ``interval``: the mesh interval it
     lies in; ``inside``: False where it sits at the interval's start (the mesh point); ``quantity``: the
-    bound's or path constraint's name; ``kind``: ``"bang-bang"`` or ``"junction"``; ``bracket``: the
+    bound's or path constraint's name; ``source``: ``"input"`` or ``"state"`` (a bound on one) or ``"path"``
+    (a path constraint); ``kind``: ``"bang-bang"`` or ``"junction"``; ``bracket``: the
     two points around it whose activity differs (fractions); ``effect``: how far the speeds (m/s, rad/s;
     the NLP's) are from those of a clean switch at ``fraction``, over the bracket (:func:`_effect`): the
     NLP smears a jump over the points of its bracket (their bounds held loosely), and a jump that is no
@@ -83,6 +84,7 @@ class Switch:
     kind: str
     bracket: tuple[float, float] = (0.0, 0.0)
     effect: float = 0.0
+    source: str = "path"
 
 
 def bounded_quantities(solution) -> list[tuple[str, np.ndarray, float, float, bool, bool]]:
@@ -137,8 +139,16 @@ def _crossing(t: np.ndarray, v: np.ndarray, level: float, i: int, j: int) -> flo
     return 0.5 * float(t[i] + t[j])
 
 
+def _reach(s: np.ndarray, i: int, step: int) -> int:
+    """From the active point ``i``, the last point of its run of points active at the same bound, in direction ``step``."""
+    while 0 <= i + step < len(s) and s[i + step] == s[i]:
+        i += step
+    return i
+
+
 def locate(t: np.ndarray, v: np.ndarray, s: np.ndarray, lower: float, upper: float,
-           eps: float, jumps: bool = True, intervals: np.ndarray | None = None) -> list[tuple[float, str, int, int]]:
+           eps: float, jumps: bool = True, intervals: np.ndarray | None = None,
+           through_active: bool = False) -> list[tuple[float, str, int, int]]:
     """The switches between points ``t`` (in time order) of values ``v`` with activity ``s``:
     ``(where, kind, i, j)``, the switch between points ``i`` and ``j`` (their activities differ). A run
     of free points between the two bounds is one jump (bang-bang), however many points and intervals it
@@ -152,7 +162,14 @@ def locate(t: np.ndarray, v: np.ndarray, s: np.ndarray, lower: float, upper: flo
     at their middle (the arc between them is not resolved). With ``intervals`` (each point's mesh interval), a
     free run of a quantity that can jump is one jump only where the NLP can have smeared one: its points in at
     most two intervals, or within :data:`JUMP_SPAN` of the horizon (a run of very short intervals at a jump);
-    a longer run is a continuous arc between the bounds, two junctions (:data:`JUMP_SPAN`). A free run next to one bound counts (two junctions) only if it leaves the
+    a longer run is a continuous arc between the bounds, two junctions (:data:`JUMP_SPAN`).
+    ``through_active`` (an input's bound, which an input leaves with a slope): a junction's line may reach
+    the bound anywhere along the active run, not only between its last point and the first free one, and
+    the junction's bracket is then the two points around it. Free points within the activity threshold of
+    the bound count as active, so the last "active" point can lie past the junction (the push clipped at
+    F <= 5.4 N, refined to 1e-4: located at 0.0574 of the horizon for 0.05556, an interval late, which left
+    the kink's interval without its estimate's kink floor; now at 0.0555555). A free run next to one bound
+    counts (two junctions) only if it leaves the
     bound by more than :data:`ARC` times ``eps`` (the activity threshold): else the bound is held loosely,
     IPOPT's ``mu / lambda`` where the bound's multiplier is small (on short intervals, whose multipliers
     scale with their length, and next to a switch, where the switching function vanishes)."""
@@ -179,9 +196,15 @@ def locate(t: np.ndarray, v: np.ndarray, s: np.ndarray, lower: float, upper: flo
                                                 else upper)).max() > ARC * eps:
             run = list(range(i, j + 1))
             if left is not None:
-                found.append((_junction(t, v, lower if s[left] < 0 else upper, left, run), "junction", left, i))
+                far = _reach(s, left, -1) if through_active else left
+                at = _junction(t, v, lower if s[left] < 0 else upper, far, run)
+                lo_pt = int(np.flatnonzero(t[: left + 1] <= at)[-1]) if at <= t[left] else left
+                found.append((at, "junction", lo_pt, lo_pt + 1 if through_active and lo_pt < left else i))
             if right is not None:
-                found.append((_junction(t, v, lower if s[right] < 0 else upper, right, run[::-1]), "junction", j, right))
+                far = _reach(s, right, 1) if through_active else right
+                at = _junction(t, v, lower if s[right] < 0 else upper, far, run[::-1])
+                hi_pt = right + int(np.flatnonzero(t[right:] >= at)[0]) if at >= t[right] else right
+                found.append((at, "junction", hi_pt - 1 if through_active and hi_pt > right else j, hi_pt))
         i = j + 1
     return found
 
@@ -223,13 +246,15 @@ def detect_switches(solution) -> list[Switch]:
     # Each point's interval (a mesh point ends the interval before it, whose last collocation point it is).
     interval_of = np.clip(np.searchsorted(mesh, frac, side="left") - 1, 0, tr.scheme.intervals - 1)
     out = []
+    bounds = getattr(tr, "user_problem", tr.problem).bounds
     for name, v, lo, hi, states_only, continuous in bounded_quantities(solution):
+        source = ("state" if states_only else "input") if name in bounds else "path"
         s, eps = activity(v, lo, hi)
         idx = np.arange(0 if states_only else 1, len(v))
         if len(np.unique(s[idx])) < 2:
             continue
         for at, kind, i, j in locate(frac[idx], v[idx], s[idx], lo, hi, eps, jumps=not continuous,
-                                     intervals=interval_of[idx]):
+                                     intervals=interval_of[idx], through_active=source == "input"):
             k = int(np.clip(np.searchsorted(mesh, at, side="right") - 1, 0, tr.scheme.intervals - 1))
             # Before the middle of the gap to the first collocation point: at the mesh point.
             inside = at - mesh[k] > 0.5 * (first[k] - mesh[k]) * (1.0 + 1e-9)
@@ -245,7 +270,7 @@ def detect_switches(solution) -> list[Switch]:
                 at, effect = float(mesh[k]), 0.0
             else:
                 effect = _effect(frac[pi : pj + 1] * T, D[:, pi : pj + 1], at * T, mesh, T) if D.size else 0.0
-            out.append(Switch(float(at), k, bool(inside), name, kind, (float(frac[pi]), float(frac[pj])), effect))
+            out.append(Switch(float(at), k, bool(inside), name, kind, (float(frac[pi]), float(frac[pj])), effect, source))
     return sorted(out, key=lambda w: w.fraction)
 
 
