@@ -17,13 +17,14 @@ and the evaluations an IPOPT solve typically makes (:data:`EVALUATIONS`):
 (:class:`Size`; the function alone is compiled: the NLP's derivatives are the assembled ones of
 :mod:`.nlp_assembly`, and nlpsol is told not to differentiate the NLP's graph itself,
 :attr:`.nlp_assembly.BlockNLP.derivative_options`), counting the savings the earlier solves of the same
-problem would have had (their meshes' ``K``) with this one's: the rule of ski rental, rent (the virtual machine) until the rent paid and due
-reaches the price (the compile), then buy; it never spends more than twice the better of the two
-choices made in hindsight, and a refinement, whose meshes grow and whose solves are many, compiles
-its heavy kinds after a few of them. ``-O1`` up to :data:`O1_MAX_OPERATIONS` operations and ``-O0``
-above (``-O1``'s compile time grows faster than the function: 3.9 s at 20k operations, 44 s at 71k).
-A function compiled before (any problem, any run: the cache is keyed by its content) is loaded
-whatever its size. Small problems (the swing-up: a few hundred operations per kind) never compile.
+problem would have had (their meshes' ``K``) with this one's: the rule of ski rental, rent (the virtual
+machine) until the rent paid and due reaches the price (the compile), then buy; it never spends more
+than twice the better of the two choices made in hindsight, and a refinement, whose meshes grow and
+whose solves are many, compiles its heavy kinds after a few of them. ``-O1`` up to
+:data:`O1_MAX_OPERATIONS` operations and ``-O0`` above (``-O1``'s compile time grows faster than the
+function: 3.9 s at 20k operations, 44 s at 71k). A function compiled before (any problem, any run: the
+cache is keyed by its content) is loaded whatever its size. Small problems (the swing-up: a few hundred
+operations per kind) never compile.
 
 Policies (``OptimalControlProblem.compiled``): ``"auto"`` (above), ``"always"`` (every function
 now, or loaded), ``"never"`` (the virtual machine). Without a C compiler, or when it fails, the

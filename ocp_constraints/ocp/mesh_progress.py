@@ -20,6 +20,8 @@ and then meet the tolerance.
 """
 from __future__ import annotations
 
+from ..errors import OCPSolveError
+
 STALL_GROWTH = 1.5      # a refinement that multiplied the points by at least this is judged by the rule
 
 
@@ -80,8 +82,6 @@ def interrupted(record: dict, refinement: int, latest):
     """Ctrl-C outside IPOPT (building or compiling a mesh's NLP; IPOPT stops itself at its next iteration and
     raises with its last iterate): the :class:`~ocp_constraints.errors.OCPSolveError` that keeps ``latest``, the
     last complete solution (None before the first), with the refinement's record saying where it stopped."""
-    from ..errors import OCPSolveError
-
     record["message"] = (f"interrupted during refinement {refinement}, outside IPOPT (building or compiling a mesh's "
                          "NLP); " + ("the last complete solution is kept in .solution" if latest is not None
                                      else "no mesh was solved yet"))

@@ -146,6 +146,22 @@ def _reach(s: np.ndarray, i: int, step: int) -> int:
     return i
 
 
+def _junction_switch(t: np.ndarray, v: np.ndarray, s: np.ndarray, bound: float, active: int, free: list[int],
+                     through_active: bool) -> tuple[float, str, int, int]:
+    """The junction between the active point ``active`` and the free run ``free`` (nearest first), as
+    :func:`locate` gives it: where :func:`_junction` puts it, and the two points around it (``through_active``
+    and behind ``active``, in its active run), else ``active`` and the nearest free point, in time order."""
+    step = 1 if free[0] > active else -1            # from the active run towards the free one
+    at = _junction(t, v, bound, _reach(s, active, -step) if through_active else active, free)
+    if through_active and (t[active] - at) * step > 0:
+        if step > 0:
+            k = int(np.flatnonzero(t <= at)[-1])
+            return at, "junction", k, k + 1
+        k = int(np.flatnonzero(t >= at)[0])
+        return at, "junction", k - 1, k
+    return (at, "junction", active, free[0]) if step > 0 else (at, "junction", free[0], active)
+
+
 def locate(t: np.ndarray, v: np.ndarray, s: np.ndarray, lower: float, upper: float,
            eps: float, jumps: bool = True, intervals: np.ndarray | None = None,
            through_active: bool = False) -> list[tuple[float, str, int, int]]:
@@ -195,16 +211,10 @@ def locate(t: np.ndarray, v: np.ndarray, s: np.ndarray, lower: float, upper: flo
         elif between or np.abs(v[i : j + 1] - (lower if s[left if left is not None else right] < 0
                                                 else upper)).max() > ARC * eps:
             run = list(range(i, j + 1))
-            if left is not None:
-                far = _reach(s, left, -1) if through_active else left
-                at = _junction(t, v, lower if s[left] < 0 else upper, far, run)
-                lo_pt = int(np.flatnonzero(t[: left + 1] <= at)[-1]) if at <= t[left] else left
-                found.append((at, "junction", lo_pt, lo_pt + 1 if through_active and lo_pt < left else i))
-            if right is not None:
-                far = _reach(s, right, 1) if through_active else right
-                at = _junction(t, v, lower if s[right] < 0 else upper, far, run[::-1])
-                hi_pt = right + int(np.flatnonzero(t[right:] >= at)[0]) if at >= t[right] else right
-                found.append((at, "junction", hi_pt - 1 if through_active and hi_pt > right else j, hi_pt))
+            for active, free in ((left, run), (right, run[::-1])):
+                if active is not None:
+                    bound = lower if s[active] < 0 else upper
+                    found.append(_junction_switch(t, v, s, bound, active, free, through_active))
         i = j + 1
     return found
 

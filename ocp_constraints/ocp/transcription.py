@@ -252,13 +252,13 @@ class Transcription(ElementKinds):
             res = self._solver(x0=x0, lbx=lbx, ubx=ubx, lbg=lbg, ubg=ubg)
         solve_time = time.perf_counter() - started
         stats = dict(self._solver.stats())
+        if stats.get("return_status") == "Invalid_Option":     # its iteration count is then not set (-1064956304)
+            raise _refused_options("Invalid options were detected by Ipopt", ipopt_options)
         if self._monitor.stop_reason:
             stats.update(success=False, return_status=f"interrupted by {self._monitor.stop_reason}")
         solution = self.completed(OCPSolution.from_vector(
             self, np.asarray(res["x"]).ravel(), stats, float(res["f"]),
             {"transcription": self.build_time, "solver_setup": setup, "solve": solve_time}))
-        if stats.get("return_status") == "Invalid_Option":     # its iteration count is then not set (-1064956304)
-            raise _refused_options("Invalid options were detected by Ipopt", ipopt_options)
         if not stats.get("success", False):
             raise OCPSolveError(
                 f"IPOPT did not solve '{self.problem.model.name}' with {self.scheme.label} "
