@@ -218,3 +218,23 @@ def test_ctrl_c_while_a_mesh_is_built_keeps_the_last_complete_solution(monkeypat
     assert kept.transcription.scheme.mesh_fractions.tolist() == builds[0].mesh_fractions.tolist()
     assert kept.mesh_refinement["estimate"] == kept.mesh_refinement["history"][0]["estimate"]
     assert "interrupted" in kept.mesh_refinement["message"]
+
+
+def test_a_warm_solve_stopped_at_its_iteration_cap_is_solved_again_with_ipopts_own_options(monkeypatch):
+    """With the warm solves' cap forced to one IPOPT iteration, every warm attempt stops there
+    (Maximum_Iterations_Exceeded) and is solved again from the same start with the user's options (IPOPT's own):
+    the history names each retry and counts its iteration, and the refinement ends on the meshes and estimates of
+    a run without the cap (the same optimum, solved to IPOPT's tolerance)."""
+    import ocp_constraints.ocp.mesh_refinement as mr
+
+    plain = build_task("pendulum", "swing_up")[1].solve(tolerance=1e-6).mesh_refinement
+    monkeypatch.setattr(mr, "WARM_FACTOR", 0)
+    monkeypatch.setattr(mr, "WARM_MIN_ITER", 1)
+    capped = build_task("pendulum", "swing_up")[1].solve(tolerance=1e-6).mesh_refinement
+    assert capped["met"] and capped["mesh"] == plain["mesh"] and capped["degrees"] == plain["degrees"]
+    for q in ("states", "multipliers"):
+        assert capped["estimate"][q] == pytest.approx(plain["estimate"][q], rel=1e-3)
+    retries = [r for h in capped["history"] for r in h.get("warm_retries", [])]
+    assert len(retries) == sum(h["solves"] for h in capped["history"]) - 1      # every solve but the first, cold
+    assert all(r["status"] == "Maximum_Iterations_Exceeded" and r["iterations"] == 1 for r in retries)
+    assert not any("warm_retries" in h for h in plain["history"])

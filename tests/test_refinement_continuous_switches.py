@@ -76,7 +76,7 @@ def test_an_input_crossing_between_its_bounds_over_many_intervals_is_an_arc_not_
 def test_an_inputs_junction_is_found_where_its_line_meets_the_bound_through_the_points_counted_active():
     """F = min(U, a - b t) at points 0.01 apart: the first two points past the junction (t1 = 0.3) are within the
     activity threshold of U, so they count as active. The line through the free points meets U at t1 exactly;
-    only ``through_active`` (an input's bound) may put the junction there, behind the last "active" point, with
+    only ``through_active`` may put the junction there, behind the last "active" point, with
     the two points around it as its bracket. Without it the junction is clamped to the last "active" point, two
     points late."""
     U, b, t1 = 5.4, 0.5, 0.3
@@ -88,3 +88,24 @@ def test_an_inputs_junction_is_found_where_its_line_meets_the_bound_through_the_
     assert kind == "junction" and abs(at - t1) < 1e-12 and t[i] <= at <= t[j] and j == i + 1
     [(late, _, _, _)] = locate(t, v, s, -np.inf, U, eps, jumps=True)
     assert late >= 0.32
+
+
+def test_a_tangential_junction_is_found_where_the_square_root_of_the_distance_reaches_the_bound():
+    """A speed limit reached tangentially, v = VMAX - c (t1 - t)^2 up to t1 = 0.3, then held: the distance from
+    the bound is quadratic in time, so the line through the two nearest free points, drawn for the distance,
+    reaches the bound early (between t = 0.33 and t1), while the one drawn for its square root lies on the third
+    point too and reaches it at t1 exactly, behind the points within the activity threshold. A slack linear in
+    time (an input leaving its bound) is still found by the distance's own line."""
+    VMAX, c, t1 = 0.65, 2.0, 0.3
+    t = np.round(np.arange(0.0, 1.0001, 0.01), 12)
+    v = np.where(t < t1, VMAX - c * (t1 - t) ** 2, VMAX)
+    s, eps = activity(v, -np.inf, VMAX)
+    assert s[28] == 1 and s[27] == 0                        # 0.28, 0.29 within the threshold: "active" early
+    [(at, kind, i, j)] = locate(t, v, s, -np.inf, VMAX, eps, jumps=False, through_active=True)
+    assert kind == "junction" and abs(at - t1) < 1e-9 and t[i] <= at <= t[j]
+    d = VMAX - v[[27, 26]]                                  # the distance's own line, as drawn before
+    assert 0.27 + d[0] / (d[1] - d[0]) * 0.01 < t1 - 0.01
+    w = np.minimum(VMAX, VMAX - 0.5 * (t - t1))            # a kink: the distance linear in time
+    s, eps = activity(w, -np.inf, VMAX)
+    [(at, _, _, _)] = locate(t, w, s, -np.inf, VMAX, eps, jumps=True, through_active=True)
+    assert abs(at - t1) < 1e-12

@@ -307,7 +307,7 @@ def markdown(swing: list[dict], fixed: list[dict], switching: list[dict], runs: 
            f"({seconds / 60:.1f} min, {time.strftime('%Y-%m-%d %H:%M')}; times are medians of {runs} runs of the whole `problem.solve`, "
            f"wall and CPU; load average {load:.1f} at the start on {os.cpu_count()} cores: above 1, wall times are inflated).\n\n"
            "## Swing-up: estimates vs true errors (Pontryagin reference)\n\n"
-           "Start: Radau 3, 10 intervals. Error = max(states abs., multipliers rel. to the largest load); "
+           "Start: Radau 5, 10 intervals. Error = max(states abs., multipliers rel. to the largest load); "
            "ratio = true / estimate (the estimate is trusted when it lies in [0.1, 1]). The cheapest fixed mesh is "
            "the one of least CPU time in the sweep below among those whose true error meets the tolerance; the "
            "ratio's times are of that mesh and the refined solve timed again alternately (medians of the runs), "

@@ -197,8 +197,8 @@ KINK_C = 0.25
 
 
 def _kink_floor(solution, est, switches) -> None:
-    """Where an input leaves or reaches its bound inside an interval (a junction of an input's bound, located
-    by :mod:`.switch_detection`), the input and the multipliers kink: their estimate on that interval is at
+    """Where an input leaves or reaches its bound inside an interval, or a path constraint its bound (a junction,
+    located by :mod:`.switch_detection`), the inputs and the multipliers kink: their estimate on that interval is at
     least ``KINK_C |slope change| h / p`` (relative to their scales, ``h`` the interval's length in s, ``p`` its
     degree), the slope change read from the solution's two points on each side. Why: at a kink the error of a
     polynomial falls only like 1 / p, so the companion two degrees up is closer to the truth by about 2 / (p + 2)
@@ -206,11 +206,15 @@ def _kink_floor(solution, est, switches) -> None:
     scripts/refinement_holdouts.py: multipliers' true error 1.27x and 1.52x the estimate). A floor from the
     kink's own size, not a factor on the difference: a factor (p + 2) / 2 also multiplied IPOPT's noise on the
     short intervals beside a junction, where an input is held off its bound by mu / z (the push at 1e-4 was
-    not met; ``results/bench/refinement_junction_experiments.md``); this floor falls with the interval."""
+    not met; ``results/bench/refinement_junction_experiments.md``); this floor falls with the interval. A path
+    constraint's kink the same (the rod's hinge-force limit of the holdouts from Radau 5 N = 10 at 1e-3: the
+    multipliers' true error was 2.0x the estimate before its junction was located inside its interval,
+    :func:`.switch_detection._junction`, and floored). A state's bound is reached tangentially: its inputs and
+    multipliers need not kink."""
     tr = solution.transcription
     mesh, t, T, sample_names = tr.scheme.mesh_fractions, solution.t, solution.t_final, names(solution)
     for w in switches:
-        if w.kind != "junction" or not w.inside or w.source != "input":
+        if w.kind != "junction" or not w.inside or w.source == "state":
             continue
         before, after = np.flatnonzero(t < w.fraction * T)[-2:], np.flatnonzero(t > w.fraction * T)[:2]
         if len(before) < 2 or len(after) < 2:

@@ -85,7 +85,7 @@ def finer(scheme: Radau, by: Radau) -> bool:
     on the same interval divides it by ~16 where the solution is smooth (the ~4x per degree of
     :func:`~.mesh_refinement.refine`). Then ``e_c <= e / 8`` and true / estimate lies in ``[1 / (2 (1 + 1/8)), 1 / (2 (1 - 1/8))]``
     = ``[0.44, 0.57]``; the bench checks it against the Pontryagin reference. Where the solution is not
-    smooth (a switch), neither kind of companion is an upper bound (:func:`~.mesh_refinement._flag_nonsmooth`)."""
+    smooth (a switch), neither kind of companion is an upper bound (:func:`~.nonsmooth.flag_nonsmooth`)."""
     if not covered(scheme, by):
         return False
     mesh, theirs = scheme.mesh_fractions, by.mesh_fractions

@@ -2,7 +2,8 @@
 
 ``problem.solve(tolerance=1e-6)`` starts from a coarse Radau mesh and repeats:
 
-1. solve on the current mesh (warm-started from the previous refinement's companion);
+1. solve on the current mesh (warm-started from the previous refinement's companion; a warm solve that its start
+   misleads is stopped and solved again with IPOPT's own options, :data:`WARM_FACTOR`);
 2. judge it against a *companion*: a solution at hand that is finer everywhere, if there is one
    (:func:`.mesh_companions.finer`: each interval halved at a degree at least its own, or kept at two
    degrees more; no solve), else the same mesh with every degree raised by two, solved warm from 1
@@ -35,8 +36,8 @@
    from the companion, no interval judged rough from it, and "met" is not claimed on it;
 5. when the estimate meets the tolerance but an interval's inputs or multipliers are still not smooth
    (no bound located a switch there), that interval is halved and the refinement goes on
-   (:func:`_nonsmooth_splits`); on the last refinement such intervals withdraw "met" and are named
-   (:func:`_flag_nonsmooth`): there the companion is no upper bound;
+   (:func:`.nonsmooth.nonsmooth_splits`); on the last refinement such intervals withdraw "met" and are named
+   (:func:`.nonsmooth.flag_nonsmooth`): there the companion is no upper bound;
 6. stop ("met" not claimed) when more points no longer pay: a second stall, or one with no progress (:mod:`.mesh_progress`).
 
 Every mesh is transcribed in the problem's own coordinates (joint coordinates under the default
@@ -60,6 +61,7 @@ from .error_estimate import DECAY_LIMIT, UNRESOLVED_OBJECTIVE, UNRESOLVED_STATE,
 from .mesh_companions import (MAX_DEGREE, _degrees, _ends, as_fine, companion_of, finer, finer_at_hand,
                               pilot_of, pilot_pieces, reused_degree, split_pieces, uniform_step)
 from .mesh_progress import interrupted, stall_message
+from .nonsmooth import MIN_INTERVAL, flag_nonsmooth, nonsmooth_splits
 from .schemes import Radau
 from .switch_detection import detect_switches, jump_windows, split_points, touched
 
@@ -69,10 +71,13 @@ MAX_REFINEMENTS = 10
 # and the solution returned are then that much larger; where solve time grows like the points, the saved solve pays for
 # ~1.8x): 1.5 keeps a margin, and a non-smooth solution (short intervals at a switch) is not traded for a finer mesh.
 SNAP_POINTS = 1.5
-MIN_INTERVAL = 1e-6     # fraction of the horizon below which an interval is not split further
 ROUGH_MIN = 1e-3        # fraction of the horizon below which a rough interval is not halved (refine)
 GATED = ("states", "multipliers")
-START = {"intervals": 10, "degree": 3}
+# The first mesh. Degree 5 rather than 3: on the 22 problems of scripts/refinement_robustness.py at 1e-3, the
+# meshes met were as small or smaller on 19 and the CPU of the rows met by both 30% less (session 9); on degree 3
+# the first solution of four (the spherical pendulums, a slider-crank, a cart-pole) was too coarse for its
+# pilot to confirm it, and the unresolved comparison doubled their meshes (281 points where 51-155 do).
+START = {"intervals": 10, "degree": 5}
 # A warm start begins near its optimum. mu_init 1e-8 spares IPOPT driving the barrier down from 0.1 (swing-up 6 -> 3-4
 # iterations; acrobot 219 -> 205 over a refinement; same meshes: python scripts/mesh_refinement_warm_mu.py --suite).
 # bound_push / bound_frac 1e-9 (IPOPT: 1e-2) keep the start on its variables' bounds: along an arc on a state bound
@@ -82,6 +87,12 @@ START = {"intervals": 10, "degree": 3}
 WARM_IPOPT = {"ipopt.mu_init": 1e-8, "ipopt.bound_push": 1e-9, "ipopt.bound_frac": 1e-9,
               "ipopt.slack_bound_push": 1e-2, "ipopt.slack_bound_frac": 1e-2}
 AT_HAND = 3              # solutions kept as possible judges of later meshes
+# A warm solve that takes more IPOPT iterations than this many times the first mesh's cold solve (and at least
+# WARM_MIN_ITER) has been misled by its start: WARM_IPOPT's small barrier parameter keeps IPOPT near the start's
+# active set. It is stopped there and solved again from the same start with IPOPT's own options (_timed_solve).
+# The suite's quadrotor from Radau 5 N = 10: its pilot took 149 iterations and 49 s of CPU to a worse optimum
+# (J = 123.386) with WARM_IPOPT, 6 iterations to J = 123.253 without; a mesh 1e-16 apart took 4 with it.
+WARM_FACTOR, WARM_MIN_ITER = 3, 30
 
 
 def check_tolerance(tolerance) -> float:
@@ -100,7 +111,7 @@ def check_tolerance(tolerance) -> float:
 
 
 def start_scheme(method) -> Radau:
-    """The first mesh: ``method`` if it is Radau, else :data:`START` (10 intervals of degree 3)."""
+    """The first mesh: ``method`` if it is Radau, else :data:`START` (10 intervals of degree 5)."""
     if method is None:
         return Radau(START["intervals"], degree=START["degree"])
     if not isinstance(method, Radau):
@@ -189,71 +200,29 @@ def _build(problem, scheme: Radau, first):
     return problem.transcription(scheme, cache=False)
 
 
-def _timed_solve(problem, scheme: Radau, ipopt_options: dict, warm_start, progress, first=None):
-    """Build and solve one transcription; ``first``: an earlier transcription of the same problem."""
+def _timed_solve(problem, scheme: Radau, ipopt_options: dict, warm_start, progress, first=None, fallback=None):
+    """Build and solve one transcription; ``first``: an earlier transcription of the same problem. ``fallback``:
+    IPOPT options to solve it again with, from the same start, where the solve with ``ipopt_options`` fails (a warm
+    solve's, :data:`WARM_FACTOR`); the failed attempt's status and iterations are kept as ``sol.warm_retry``."""
     started, cpu = time.perf_counter(), time.process_time()
     tr = _build(problem, scheme, first)
     try:
-        sol = tr.solve(ipopt_options, warm_start, progress=progress)
+        try:
+            sol = tr.solve(ipopt_options, warm_start, progress=progress)
+        except OCPSolveError as exc:
+            failed = exc.solution
+            if fallback is None or failed is None or failed.status.startswith("interrupted"):
+                raise
+            sol = tr.solve(fallback, warm_start, progress=progress)
+            sol.warm_retry = {"status": failed.status, "iterations": failed.iterations}
     finally:
         elapsed, cpu_used = time.perf_counter() - started, time.process_time() - cpu
     return sol, elapsed, cpu_used
 
 
-def _flag_nonsmooth(sol, tol: float, record: dict, smoothness: tuple, windows=()) -> None:
-    """Withdraw "met" where the estimate cannot be trusted (and say so where it is not met either):
-    intervals whose inputs or multipliers are not smooth (their Legendre coefficients fall no faster
-    than half a step's, :func:`.error_estimate.legendre_decay`) and whose polynomial's last term is
-    larger than the tolerance. There a jump (a switch of a bang-bang input) sits inside the
-    interval, the companion resolves it no better than the solution, and their difference is no
-    upper bound (minimum-time swing-up: true state error 2.5x the estimate; the bench). The
-    intervals are named in ``nonsmooth_intervals`` and the message; the solution is kept.
-
-    Except inside ``windows`` (:func:`.switch_detection.jump_windows`): there a jump between an
-    input's bounds was located from the bounds and has a mesh point within its bracket; the states'
-    estimate covers it (continuous, compared everywhere), the inputs and multipliers are left out of
-    theirs there, and the record says so (``jump_windows``, and the message). ``smoothness``: ``legendre_decay(sol)``."""
-    decay, tail = smoothness
-    mesh = sol.transcription.scheme.mesh_fractions
-    mid = (mesh[:-1] + mesh[1:]) / 2
-    in_window = np.zeros(len(mid), bool)
-    for lo, hi in windows:
-        in_window |= (mid > lo) & (mid < hi)
-    if windows:
-        merged = sorted({(round(lo, 9), round(hi, 9)) for lo, hi in windows})
-        record["jump_windows"] = [[float(lo), float(hi)] for lo, hi in merged]
-        record["message"] += (f"; the inputs and multipliers jump (bang-bang) within {len(merged)} window(s) at fractions "
-                              + ", ".join(f"{lo:.5g}-{hi:.5g}" for lo, hi in merged[:4])
-                              + " of the horizon: located from the bounds with a mesh point inside, their estimate "
-                              "leaves these windows out (their error there is the jump's size), the states' does not")
-    bad = np.flatnonzero((decay > DECAY_LIMIT) & (tail > tol) & ~in_window)
-    if not len(bad):
-        return
-    record["nonsmooth_intervals"] = [[float(mesh[k]), float(mesh[k + 1])] for k in bad]
-    spots = ", ".join(f"{mesh[k]:.4g}-{mesh[k + 1]:.4g}" for k in bad[:4])
-    record.update(met=False, message=record["message"] + (
-        f"{', but' if record['message'].startswith('estimated') else '; and the estimate is'} not trusted: the inputs "
-        f"or multipliers are not smooth on {len(bad)} interval(s), at fractions {spots} "
-        f"of the horizon (a switch inside: their Legendre coefficients fall as slowly as a "
-        f"step's, up to {decay[bad].max():.2f} of it); a higher degree resolves a jump no better, so the "
-        f"estimate is no upper bound there. Put a mesh point at the switch (Radau(mesh=...)) or accept the error "
-        f"near it"))
-
-
-def _nonsmooth_splits(sol, tol: float, smoothness: tuple, windows=()) -> dict[int, list[float]]:
-    """Where the estimate is met but not trusted (:func:`_flag_nonsmooth`: inputs or multipliers not
-    smooth, their last Legendre term above ``tol``, outside the jump ``windows``): each such interval
-    halved, for :func:`refine`. No bound located a switch there, so the middle; the next solution says
-    whether a polynomial follows each half (rolling-disk drive at 1e-3: the first interval, its friction
-    cone active up to a mesh point, decay 0.50 of a step's at degree 3). ``smoothness``: ``legendre_decay(sol)``."""
-    decay, tail = smoothness
-    mesh = sol.transcription.scheme.mesh_fractions
-    mid = (mesh[:-1] + mesh[1:]) / 2
-    out = {}
-    for k in np.flatnonzero((decay > DECAY_LIMIT) & (tail > tol)):
-        if not any(lo < mid[k] < hi for lo, hi in windows) and mesh[k + 1] - mesh[k] > 2 * MIN_INTERVAL:
-            out[int(k)] = [float(mid[k])]
-    return out
+def _iterations(sol) -> int:
+    """IPOPT iterations of a solve, a failed warm attempt's included (:func:`_timed_solve`)."""
+    return sol.iterations + sol.__dict__.get("warm_retry", {}).get("iterations", 0)
 
 
 def solve_to_tolerance(problem, tolerance, method=None, ipopt_options: dict | None = None, warm_start=None, *,
@@ -266,7 +235,7 @@ def solve_to_tolerance(problem, tolerance, method=None, ipopt_options: dict | No
         The error accepted: states (coordinates and speeds) absolute in SI units, multipliers
         (constraint forces and moments, eq. 26) relative to the largest load.
     method
-        The starting mesh (a :class:`Radau`); default 10 intervals of degree 3.
+        The starting mesh (a :class:`Radau`); default 10 intervals of degree 5.
     max_refinements
         Refinements after the first solve; if the estimate is still above the tolerance then, the
         last solution is returned with ``mesh_refinement["met"]`` False and the reason.
@@ -284,6 +253,7 @@ def solve_to_tolerance(problem, tolerance, method=None, ipopt_options: dict | No
     # Solutions solved lately: a finer one may judge a later mesh (:func:`finer`). Meshes grow, so a finer
     # one is among the last few; the older ones (each with its NLP and IPOPT instance) are let go.
     at_hand: list = []
+    warm_options = {**WARM_IPOPT, **options}    # capped once the first mesh's cold solve has said how hard it is
     for r in range(max_refinements + 1):
         entry = {"refinement": r, "intervals": scheme.intervals, "points": scheme.point_count,
                  "mesh": [float(m) for m in scheme.mesh_fractions], "degrees": [int(d) for d in _degrees(scheme)]}
@@ -293,10 +263,12 @@ def solve_to_tolerance(problem, tolerance, method=None, ipopt_options: dict | No
                 sol, t_sol, c_sol = solved, 0.0, 0.0
                 entry["solved_as_companion"] = True
             else:
-                sol, t_sol, c_sol = _timed_solve(problem, scheme, options if warm is None else {**WARM_IPOPT, **options},
-                                                 warm, progress, first)
-            first = first or sol.transcription
-            entry.update(iterations=0 if solved is not None else sol.iterations, time_s=t_sol, cpu_s=c_sol)
+                sol, t_sol, c_sol = (_timed_solve(problem, scheme, options, None, progress, first) if warm is None else
+                                     _timed_solve(problem, scheme, warm_options, warm, progress, first, options))
+            if first is None:
+                first, cap = sol.transcription, max(WARM_MIN_ITER, WARM_FACTOR * sol.iterations)
+                warm_options = {**WARM_IPOPT, "ipopt.max_iter": cap, **options}
+            entry.update(iterations=0 if solved is not None else _iterations(sol), time_s=t_sol, cpu_s=c_sol)
             judge = finer_at_hand(scheme, at_hand) if r > 0 else None
             if solved is None:
                 at_hand.append(sol)
@@ -307,7 +279,7 @@ def solve_to_tolerance(problem, tolerance, method=None, ipopt_options: dict | No
             else:
                 companion, t_comp, c_comp = _timed_solve(problem, pilot_of(scheme, pilot_pieces(sol, tol)) if r == 0
                                                          else companion_of(scheme),
-                                                         {**WARM_IPOPT, **options}, sol, progress, first)
+                                                         warm_options, sol, progress, first, options)
                 at_hand.append(companion)
             del at_hand[:-AT_HAND]
             entry["solves"] = (solved is None) + (judge is None)
@@ -324,7 +296,12 @@ def solve_to_tolerance(problem, tolerance, method=None, ipopt_options: dict | No
         windows = jump_windows(found + detect_switches(companion), scheme.mesh_fractions)
         est = estimate_error(sol, companion, windows=windows, switches=found)
         if judge is None:
-            entry.update(companion_iterations=companion.iterations, companion_time_s=t_comp, companion_cpu_s=c_comp)
+            entry.update(companion_iterations=_iterations(companion), companion_time_s=t_comp, companion_cpu_s=c_comp)
+        retried = [dict(x.warm_retry, of=of) for x, of, new in ((sol, "solution", solved is None),
+                                                               (companion, "companion", judge is None))
+                   if new and "warm_retry" in x.__dict__]
+        if retried:
+            entry["warm_retries"] = retried
         entry.update(**est.as_dict())
         ratio = np.max([est.per_interval[q] for q in GATED], axis=0) / tol
         record.update(mesh=entry["mesh"], degrees=entry["degrees"], estimate=entry["estimate"], worst=entry["worst"],
@@ -345,12 +322,12 @@ def solve_to_tolerance(problem, tolerance, method=None, ipopt_options: dict | No
         met = all(est.totals[q] <= tol for q in GATED)
         smoothness = legendre_decay(sol)    # Legendre decay and last term per interval: read three times below
         switches = split_points(found, scheme.mesh_fractions, MIN_INTERVAL, tol, ratio) or (
-            _nonsmooth_splits(sol, tol, smoothness, windows) if met and r < max_refinements else {})
+            nonsmooth_splits(sol, tol, smoothness, windows) if met and r < max_refinements else {})
         entry["switches"] = [f for k in sorted(switches) for f in switches[k]]
         if met and not switches:
             record.update(met=True, message=f"estimated error at most {tol:g} after {r} refinements "
                                             f"({scheme.intervals} intervals, {scheme.point_count} points)")
-            _flag_nonsmooth(sol, tol, record, smoothness, windows)
+            flag_nonsmooth(sol, tol, record, smoothness, windows)
             break
         if r == max_refinements:
             record["message"] = (f"estimate still above {tol:g} after {r} refinements (states "
@@ -363,11 +340,11 @@ def solve_to_tolerance(problem, tolerance, method=None, ipopt_options: dict | No
                 spots = ", ".join(f"{a:.4g}-{b:.4g}" for a, b in record["rough_intervals"][:4])
                 record["message"] += (f"; the estimate stays above it on intervals that refinement does not improve "
                                       f"(a switch: inputs and multipliers jump there), at fractions {spots} of the horizon")
-            _flag_nonsmooth(sol, tol, record, smoothness, windows)
+            flag_nonsmooth(sol, tol, record, smoothness, windows)
             break
         if stalled := stall_message(history, tol, GATED):    # more points no longer pay (mesh_progress)
             record["message"] = stalled
-            _flag_nonsmooth(sol, tol, record, smoothness, windows)
+            flag_nonsmooth(sol, tol, record, smoothness, windows)
             break
         # Rough intervals (see refine): where the solution switches; a jump of the inputs and
         # multipliers there keeps their largest error near the jump's size at any mesh.
@@ -381,7 +358,7 @@ def solve_to_tolerance(problem, tolerance, method=None, ipopt_options: dict | No
         if new == scheme:
             record["message"] = (f"estimate above {tol:g} on intervals that cannot be refined further "
                                  f"(shorter than {MIN_INTERVAL:g} of the horizon at degree {MAX_DEGREE})")
-            _flag_nonsmooth(sol, tol, record, smoothness, windows)      # the jump windows, as on every other stop
+            flag_nonsmooth(sol, tol, record, smoothness, windows)      # the jump windows, as on every other stop
             break
         solved = None
         pilot = companion.transcription.scheme

@@ -258,7 +258,7 @@ class OptimalControlProblem:
         with a Dask ``client`` the starts run on its workers
         (:func:`~ocp_constraints.ocp.multistart.solve_multistart`).
         ``tolerance``: the error you accept (states in SI units, multipliers relative to the largest
-        load); hp mesh refinement from ``method`` (a Radau mesh, default 10 intervals of degree 3)
+        load); hp mesh refinement from ``method`` (a Radau mesh, default 10 intervals of degree 5)
         until the a-posteriori estimate meets it, the final mesh, the estimate per quantity and the
         history in ``sol.mesh_refinement`` (:func:`~ocp_constraints.ocp.mesh_refinement.solve_to_tolerance`).
         """

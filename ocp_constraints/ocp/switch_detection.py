@@ -21,9 +21,12 @@ the activity changes between two neighbouring points the switch is located betwe
 - from one bound to the other (bang-bang), where the piecewise-linear interpolation of the points
   crosses the middle of the two bounds (an intermediate point value is the NLP's partial step: a value
   ``u_m`` at a point stands for the bound held over the matching part of its neighbourhood);
-- between a bound and a free arc (a junction, where the multipliers kink), where the straight line
-  through the two nearest free points reaches the bound (the slack grows linearly away from a junction
-  of a mixed constraint), kept between the two points.
+- between a bound and a free arc (a junction, where the multipliers kink), where the free points reach
+  the bound: the straight line through the two nearest, drawn for their distance from the bound (a
+  mixed constraint's slack grows linearly away from its junction) or for its square root (a speed
+  limit, or a load that follows the speeds, leaves its bound tangentially), whichever the third
+  nearest lies on more closely (:func:`_junction`), anywhere back along the run of points counted
+  active (within the activity threshold a tangential approach looks active early).
 
 A switch located in the first half of the gap between an interval's start and its first collocation
 point is *at the mesh point*: Radau's inputs at the mesh point are the interval before's, so a jump
@@ -120,15 +123,27 @@ def activity(values: np.ndarray, lower: float, upper: float) -> tuple[np.ndarray
 
 
 def _junction(t: np.ndarray, v: np.ndarray, bound: float, active: int, free: list[int]) -> float:
-    """Where the line through the free points ``free`` (nearest first) reaches ``bound``, kept between
-    the active point ``active`` and the nearest free point (their midpoint if the line does not help)."""
+    """Where the free points ``free`` (nearest first) reach ``bound``, kept between the active point ``active``
+    and the nearest free point (their midpoint if the free points do not help). A quantity leaves a bound
+    with a slope (an input; its distance ``d`` from the bound linear in time) or tangentially (a speed
+    limit, a load that follows the speeds: ``d`` quadratic, ``sqrt(d)`` linear); the line through the two
+    nearest free points is drawn for ``d`` and for ``sqrt(d)``, and the one on which the third nearest lies
+    more closely is taken (with two free points, ``d``'s). Drawn for ``d`` alone, a tangential approach
+    reaches the bound early: the hinge's speed limit of scripts/refinement_holdouts.py (Radau 5 to 7, 1e-3),
+    at 0.625 s for 0.6438 s, a mesh point before the kink's interval."""
     lo, hi = sorted((t[active], t[free[0]]))
-    if len(free) >= 2 and v[free[1]] != v[free[0]]:
-        slope = (v[free[1]] - v[free[0]]) / (t[free[1]] - t[free[0]])
-        at = t[free[0]] + (bound - v[free[0]]) / slope
-        if np.isfinite(at):
-            return float(min(max(at, lo), hi))
-    return 0.5 * (lo + hi)
+    if len(free) < 2:
+        return 0.5 * (lo + hi)
+    d = np.abs(v[free[:3]] - bound)
+    fits = []       # (how far the third point is off the line, relative; where the line reaches zero)
+    for y in (d, np.sqrt(d)) if len(free) >= 3 else (d,):
+        if y[1] != y[0]:
+            slope = (y[1] - y[0]) / (t[free[1]] - t[free[0]])
+            at = t[free[0]] - y[0] / slope
+            off = abs(y[0] + slope * (t[free[2]] - t[free[0]]) - y[2]) / float(y.max()) if len(y) > 2 else 0.0
+            if np.isfinite(at):
+                fits.append((off, at))
+    return float(min(max(min(fits)[1], lo), hi)) if fits else 0.5 * (lo + hi)
 
 
 def _crossing(t: np.ndarray, v: np.ndarray, level: float, i: int, j: int) -> float:
@@ -179,12 +194,12 @@ def locate(t: np.ndarray, v: np.ndarray, s: np.ndarray, lower: float, upper: flo
     free run of a quantity that can jump is one jump only where the NLP can have smeared one: its points in at
     most two intervals, or within :data:`JUMP_SPAN` of the horizon (a run of very short intervals at a jump);
     a longer run is a continuous arc between the bounds, two junctions (:data:`JUMP_SPAN`).
-    ``through_active`` (an input's bound, which an input leaves with a slope): a junction's line may reach
-    the bound anywhere along the active run, not only between its last point and the first free one, and
-    the junction's bracket is then the two points around it. Free points within the activity threshold of
-    the bound count as active, so the last "active" point can lie past the junction (the push clipped at
-    F <= 5.4 N, refined to 1e-4: located at 0.0574 of the horizon for 0.05556, an interval late, which left
-    the kink's interval without its estimate's kink floor; now at 0.0555555). A free run next to one bound
+    ``through_active``: a junction may lie anywhere back along the active run, not only between its last
+    point and the first free one, and the junction's bracket is then the two points around it. Free points
+    within the activity threshold of the bound count as active, so the last "active" point can lie past the
+    junction (the push clipped at F <= 5.4 N, refined to 1e-4: located at 0.0574 of the horizon for 0.05556,
+    an interval late, which left the kink's interval without its estimate's kink floor; now at 0.0555555;
+    a tangential approach, :func:`_junction`, counts as active even longer). A free run next to one bound
     counts (two junctions) only if it leaves the
     bound by more than :data:`ARC` times ``eps`` (the activity threshold): else the bound is held loosely,
     IPOPT's ``mu / lambda`` where the bound's multiplier is small (on short intervals, whose multipliers
@@ -264,7 +279,7 @@ def detect_switches(solution) -> list[Switch]:
         if len(np.unique(s[idx])) < 2:
             continue
         for at, kind, i, j in locate(frac[idx], v[idx], s[idx], lo, hi, eps, jumps=not continuous,
-                                     intervals=interval_of[idx], through_active=source == "input"):
+                                     intervals=interval_of[idx], through_active=True):
             k = int(np.clip(np.searchsorted(mesh, at, side="right") - 1, 0, tr.scheme.intervals - 1))
             # Before the middle of the gap to the first collocation point: at the mesh point.
             inside = at - mesh[k] > 0.5 * (first[k] - mesh[k]) * (1.0 + 1e-9)
@@ -278,6 +293,12 @@ def detect_switches(solution) -> list[Switch]:
                 # scripts/refinement_holdouts.py, its switch at T/2 on every mesh: the trapezoids across the gap
                 # made an "effect" of 6.9e-2 m/s where the true state error was 4e-9).
                 at, effect = float(mesh[k]), 0.0
+            elif kind == "junction" and source != "input":
+                # A path constraint's or a state bound's kink, now located where its approach meets the bound
+                # (to 2e-6 of the horizon on the speed-limited block of tests/test_refinement_junctions.py): the
+                # accelerations are continuous there, and a jump's effect (their change across the bracket times
+                # its distance from a mesh point) made the states' estimate 15x their true error.
+                effect = 0.0
             else:
                 effect = _effect(frac[pi : pj + 1] * T, D[:, pi : pj + 1], at * T, mesh, T) if D.size else 0.0
             out.append(Switch(float(at), k, bool(inside), name, kind, (float(frac[pi]), float(frac[pj])), effect, source))

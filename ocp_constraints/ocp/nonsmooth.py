@@ -1,0 +1,68 @@
+"""Where the estimate of a mesh refinement is not trusted: intervals whose inputs or multipliers are not smooth
+(issue 19). A jump inside an interval (a bang-bang input's switch that no bound located) is resolved by the
+companion no better than by the solution, so their difference is no upper bound there: such intervals withdraw
+"met" (:func:`flag_nonsmooth`) or, while the estimate is met, are halved (:func:`nonsmooth_splits`). Used by
+:mod:`.mesh_refinement`."""
+from __future__ import annotations
+
+import numpy as np
+
+from .error_estimate import DECAY_LIMIT
+
+MIN_INTERVAL = 1e-6     # fraction of the horizon below which an interval is not split further
+
+
+def flag_nonsmooth(sol, tol: float, record: dict, smoothness: tuple, windows=()) -> None:
+    """Withdraw "met" where the estimate cannot be trusted (and say so where it is not met either):
+    intervals whose inputs or multipliers are not smooth (their Legendre coefficients fall no faster
+    than half a step's, :func:`.error_estimate.legendre_decay`) and whose polynomial's last term is
+    larger than the tolerance. There a jump (a switch of a bang-bang input) sits inside the
+    interval, the companion resolves it no better than the solution, and their difference is no
+    upper bound (minimum-time swing-up: true state error 2.5x the estimate; the bench). The
+    intervals are named in ``nonsmooth_intervals`` and the message; the solution is kept.
+
+    Except inside ``windows`` (:func:`.switch_detection.jump_windows`): there a jump between an
+    input's bounds was located from the bounds and has a mesh point within its bracket; the states'
+    estimate covers it (continuous, compared everywhere), the inputs and multipliers are left out of
+    theirs there, and the record says so (``jump_windows``, and the message). ``smoothness``: ``legendre_decay(sol)``."""
+    decay, tail = smoothness
+    mesh = sol.transcription.scheme.mesh_fractions
+    mid = (mesh[:-1] + mesh[1:]) / 2
+    in_window = np.zeros(len(mid), bool)
+    for lo, hi in windows:
+        in_window |= (mid > lo) & (mid < hi)
+    if windows:
+        merged = sorted({(round(lo, 9), round(hi, 9)) for lo, hi in windows})
+        record["jump_windows"] = [[float(lo), float(hi)] for lo, hi in merged]
+        record["message"] += (f"; the inputs and multipliers jump (bang-bang) within {len(merged)} window(s) at fractions "
+                              + ", ".join(f"{lo:.5g}-{hi:.5g}" for lo, hi in merged[:4])
+                              + " of the horizon: located from the bounds with a mesh point inside, their estimate "
+                              "leaves these windows out (their error there is the jump's size), the states' does not")
+    bad = np.flatnonzero((decay > DECAY_LIMIT) & (tail > tol) & ~in_window)
+    if not len(bad):
+        return
+    record["nonsmooth_intervals"] = [[float(mesh[k]), float(mesh[k + 1])] for k in bad]
+    spots = ", ".join(f"{mesh[k]:.4g}-{mesh[k + 1]:.4g}" for k in bad[:4])
+    record.update(met=False, message=record["message"] + (
+        f"{', but' if record['message'].startswith('estimated') else '; and the estimate is'} not trusted: the inputs "
+        f"or multipliers are not smooth on {len(bad)} interval(s), at fractions {spots} "
+        f"of the horizon (a switch inside: their Legendre coefficients fall as slowly as a "
+        f"step's, up to {decay[bad].max():.2f} of it); a higher degree resolves a jump no better, so the "
+        f"estimate is no upper bound there. Put a mesh point at the switch (Radau(mesh=...)) or accept the error "
+        f"near it"))
+
+
+def nonsmooth_splits(sol, tol: float, smoothness: tuple, windows=()) -> dict[int, list[float]]:
+    """Where the estimate is met but not trusted (:func:`flag_nonsmooth`: inputs or multipliers not
+    smooth, their last Legendre term above ``tol``, outside the jump ``windows``): each such interval
+    halved, for :func:`refine`. No bound located a switch there, so the middle; the next solution says
+    whether a polynomial follows each half (rolling-disk drive at 1e-3: the first interval, its friction
+    cone active up to a mesh point, decay 0.50 of a step's at degree 3). ``smoothness``: ``legendre_decay(sol)``."""
+    decay, tail = smoothness
+    mesh = sol.transcription.scheme.mesh_fractions
+    mid = (mesh[:-1] + mesh[1:]) / 2
+    out = {}
+    for k in np.flatnonzero((decay > DECAY_LIMIT) & (tail > tol)):
+        if not any(lo < mid[k] < hi for lo, hi in windows) and mesh[k + 1] - mesh[k] > 2 * MIN_INTERVAL:
+            out[int(k)] = [float(mid[k])]
+    return out
