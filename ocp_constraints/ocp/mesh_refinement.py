@@ -73,10 +73,11 @@ MAX_REFINEMENTS = 10
 SNAP_POINTS = 1.5
 ROUGH_MIN = 1e-3        # fraction of the horizon below which a rough interval is not halved (refine)
 GATED = ("states", "multipliers")
-# The first mesh. Degree 5 rather than 3: on the 22 problems of scripts/refinement_robustness.py at 1e-3, the
-# meshes met were as small or smaller on 19 and the CPU of the rows met by both 30% less (session 9); on degree 3
-# the first solution of four (the spherical pendulums, a slider-crank, a cart-pole) was too coarse for its
-# pilot to confirm it, and the unresolved comparison doubled their meshes (281 points where 51-155 do).
+# The first mesh. Degree 5 rather than 3 (scripts/refinement_robustness.py, results/bench/refinement_start.md): at
+# 1e-3 the 21 problems met both ways end on as few points or fewer on 18 (7,059 points against 8,861) for 32% less
+# CPU; at 1e-5, on 11 of 12, for 25% more CPU (the ball-and-socket reach and the quadrotor); on degree 3 the first
+# solutions of four (the spherical pendulums, a slider-crank, a cart-pole) were too coarse for their pilots to
+# confirm them, and the unresolved comparison doubled their meshes (281 points where 51-155 do).
 START = {"intervals": 10, "degree": 5}
 # A warm start begins near its optimum. mu_init 1e-8 spares IPOPT driving the barrier down from 0.1 (swing-up 6 -> 3-4
 # iterations; acrobot 219 -> 205 over a refinement; same meshes: python scripts/mesh_refinement_warm_mu.py --suite).
