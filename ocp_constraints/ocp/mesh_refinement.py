@@ -74,8 +74,8 @@ SNAP_POINTS = 1.5
 ROUGH_MIN = 1e-3        # fraction of the horizon below which a rough interval is not halved (refine)
 GATED = ("states", "multipliers")
 # The first mesh. Degree 5 rather than 3 (scripts/refinement_robustness.py, results/bench/refinement_start.md): at
-# 1e-3 the 21 problems met both ways end on as few points or fewer on 18 (7,059 points against 8,861) for 32% less
-# CPU; at 1e-5, on 11 of 12, for 25% more CPU (the ball-and-socket reach and the quadrotor); on degree 3 the first
+# 1e-3 the 21 problems met both ways end on as few points or fewer on 18 (7,053 points against 8,861) for 29% less
+# CPU; at 1e-5, on 11 of 12, for 24% more CPU (the ball-and-socket reach and the quadrotor); on degree 3 the first
 # solutions of four (the spherical pendulums, a slider-crank, a cart-pole) were too coarse for their pilots to
 # confirm them, and the unresolved comparison doubled their meshes (281 points where 51-155 do).
 START = {"intervals": 10, "degree": 5}
