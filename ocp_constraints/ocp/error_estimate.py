@@ -211,20 +211,21 @@ def _kink_floor(solution, est, switches) -> None:
     multipliers' true error was 2.0x the estimate before its junction was located inside its interval,
     :func:`.switch_detection._junction`, and floored). A state's bound is reached tangentially: its inputs and
     multipliers need not kink."""
+    kinks = [w for w in switches if w.kind == "junction" and w.inside and w.source != "state"]
+    if not kinks:
+        return
     tr = solution.transcription
     mesh, t, T, sample_names = tr.scheme.mesh_fractions, solution.t, solution.t_final, names(solution)
-    for w in switches:
-        if w.kind != "junction" or not w.inside or w.source == "state":
-            continue
+    # Each quantity's values at the points, relative to its scale: read once for all the kinks.
+    values = {q: np.array([np.asarray(solution.sample(n), float) for n in sample_names[q]]) / scale
+              for q, scale in (("multipliers", est.load_scale), ("inputs", est.input_scale)) if sample_names[q] and scale}
+    for w in kinks:
         before, after = np.flatnonzero(t < w.fraction * T)[-2:], np.flatnonzero(t > w.fraction * T)[:2]
         if len(before) < 2 or len(after) < 2:
             continue
         k = w.interval
         reach = KINK_C * (mesh[k + 1] - mesh[k]) * T / len(tr.local[k].tau)
-        for q, scale in (("multipliers", est.load_scale), ("inputs", est.input_scale)):
-            if not sample_names[q] or not scale:
-                continue
-            V = np.array([np.asarray(solution.sample(n), float) for n in sample_names[q]]) / scale
+        for q, V in values.items():
             slope = [(V[:, b] - V[:, a]) / (t[b] - t[a]) for a, b in (before, after)]
             model = reach * float(np.abs(slope[1] - slope[0]).max())
             est.per_interval[q][k] = max(est.per_interval[q][k], model)

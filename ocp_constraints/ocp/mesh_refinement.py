@@ -226,7 +226,7 @@ def _timed_solve(problem, scheme: Radau, ipopt_options: dict, warm_start, progre
 
 def _iterations(sol) -> int:
     """IPOPT iterations of a solve, a failed warm attempt's included (:func:`_timed_solve`)."""
-    return sol.iterations + sol.__dict__.get("warm_retry", {}).get("iterations", 0)
+    return sol.iterations + getattr(sol, "warm_retry", {}).get("iterations", 0)
 
 
 def solve_to_tolerance(problem, tolerance, method=None, ipopt_options: dict | None = None, warm_start=None, *,
@@ -270,8 +270,8 @@ def solve_to_tolerance(problem, tolerance, method=None, ipopt_options: dict | No
                 sol, t_sol, c_sol = (_timed_solve(problem, scheme, options, None, progress, first) if warm is None else
                                      _timed_solve(problem, scheme, warm_options, warm, progress, first, options))
             if first is None:
-                first, cap = sol.transcription, max(WARM_MIN_ITER, WARM_FACTOR * sol.iterations)
-                warm_options = {**WARM_IPOPT, "ipopt.max_iter": cap, **options}
+                first = sol.transcription
+                warm_options = {**WARM_IPOPT, "ipopt.max_iter": max(WARM_MIN_ITER, WARM_FACTOR * sol.iterations), **options}
             entry.update(iterations=0 if solved is not None else _iterations(sol), time_s=t_sol, cpu_s=c_sol)
             judge = finer_at_hand(scheme, at_hand) if r > 0 else None
             if solved is None:
@@ -303,7 +303,7 @@ def solve_to_tolerance(problem, tolerance, method=None, ipopt_options: dict | No
             entry.update(companion_iterations=_iterations(companion), companion_time_s=t_comp, companion_cpu_s=c_comp)
         retried = [dict(x.warm_retry, of=of) for x, of, new in ((sol, "solution", solved is None),
                                                                (companion, "companion", judge is None))
-                   if new and "warm_retry" in x.__dict__]
+                   if new and hasattr(x, "warm_retry")]
         if retried:
             entry["warm_retries"] = retried
         entry.update(**est.as_dict())
