@@ -111,6 +111,35 @@ def test_unresolved_comparison_is_recognised_by_objective_or_state_range():
     assert ErrorEstimate({}, {}, 1.0, 1.0, objective_change=1e-4, state_change=1e-3).resolved
 
 
+def test_a_states_error_made_on_one_interval_and_carried_along_is_refined_where_it_is_made():
+    """compare() and ErrorEstimate.refinement_ratio on differences written by hand: a state's difference is 0
+    before t = 0.3, grows linearly to 1e-3 across interval 3 (0.3-0.4) and stays 1e-3 after it (an error made
+    at a junction and carried along by the dynamics). The estimate is 1e-3 on intervals 3-9, but only interval 3
+    makes it: above the tolerance 1e-4 it alone gets the ratio of the whole (10), the carrying intervals none.
+    A second state whose difference oscillates with the same amplitude on every interval spreads the ratio
+    over all of them. Met states keep their per-interval estimate."""
+    from ocp_constraints.ocp.error_estimate import compare
+
+    mesh = np.linspace(0.0, 1.0, 11)
+    fractions = np.concatenate([np.linspace(a, b, 5) for a, b in zip(mesh[:-1], mesh[1:])])
+    owner = np.repeat(np.arange(10), 5)
+    carried = 1e-3 * np.clip((fractions - 0.3) / 0.1, 0.0, 1.0)
+    zero = {"multipliers": np.zeros((1, fractions.size)), "inputs": np.zeros((1, fractions.size))}
+    labels = {"states": ["x"], "multipliers": ["c.lambda"], "inputs": ["u"]}
+    est = compare({"states": carried[None, :], **zero}, {"states": np.zeros((1, fractions.size)), **zero},
+                  fractions, owner, 10, labels)
+    assert est.totals["states"] == pytest.approx(1e-3)
+    assert np.allclose(est.per_interval["states"], [0, 0, 0, 1e-3, 1e-3, 1e-3, 1e-3, 1e-3, 1e-3, 1e-3])
+    assert np.allclose(est.local_states, [0, 0, 0, 1e-3, 0, 0, 0, 0, 0, 0])
+    assert np.allclose(est.refinement_ratio(1e-4, ("states",)), [0, 0, 0, 10, 0, 0, 0, 0, 0, 0])
+    # Met: the per-interval estimate itself (every ratio at most 1).
+    assert np.allclose(est.refinement_ratio(2e-3, ("states",)), est.per_interval["states"] / 2e-3)
+    wave = 1e-3 * np.sin(2 * np.pi * 10 * fractions)        # one period per interval: made everywhere
+    est = compare({"states": wave[None, :], **zero}, {"states": np.zeros((1, fractions.size)), **zero},
+                  fractions, owner, 10, labels)
+    assert np.allclose(est.refinement_ratio(1e-4, ("states",)), 10.0)
+
+
 def test_unresolved_step_halves_the_companion_and_rough_needs_a_non_smooth_interval():
     """uniform_step halves every interval of the companion at its degrees capped at MAX_DEGREE; refine
     splits at MIN_DEGREE an interval whose estimate fell less than tenfold only where it is not smooth,

@@ -51,6 +51,9 @@ class ErrorEstimate:
     # relative difference and the states' largest difference over their range; None until measured.
     objective_change: float | None = None
     state_change: float | None = None
+    # Per interval, how much the states' difference changes across it (:func:`compare`): the error made there,
+    # where ``per_interval["states"]`` also holds the error carried in from before (:meth:`refinement_ratio`).
+    local_states: np.ndarray | None = None
 
     def as_dict(self) -> dict:
         out = {"estimate": dict(self.totals), "worst": dict(self.worst), "load_scale": self.load_scale,
@@ -59,6 +62,25 @@ class ErrorEstimate:
             out.update(objective_change=self.objective_change, state_change=self.state_change,
                        resolved=self.resolved)
         return out
+
+    def refinement_ratio(self, tolerance: float, gated) -> np.ndarray:
+        """Per interval, the estimate over ``tolerance``, the largest over the ``gated`` quantities: where to refine.
+
+        The states' error is carried along by the dynamics: an error made at one spot (a junction where a
+        path constraint becomes active, a kink) shows in the states' difference on every later interval,
+        and refining every interval where it shows doubles the whole mesh for an error made at two points
+        (the cart-pole with a bounded hinge force at 1e-3: on 167 intervals the states' estimate was above
+        the tolerance on three quarters of them, 3.6x at the median, while the change of the difference
+        across an interval was 0.23x the tolerance at the median and 3.6x at the junctions). So while the
+        states' estimate is above the tolerance, their per-interval share is where the difference *changes*
+        (``local_states``), scaled so that the largest is the whole estimate: the interval that makes most of
+        the error gets the ratio of the whole, the others in proportion to what they make. Met or not is
+        still decided on the whole estimate (``totals``), which this leaves as it is."""
+        per = dict(self.per_interval)
+        total, local = self.totals.get("states", 0.0), self.local_states
+        if "states" in gated and local is not None and total > tolerance and local.max() > 0.0:
+            per["states"] = local * (total / local.max())
+        return np.max([per[q] for q in gated], axis=0) / tolerance
 
     @property
     def resolved(self) -> bool:
@@ -124,7 +146,13 @@ def compare(values: dict[str, np.ndarray], reference: dict[str, np.ndarray], fra
         totals[q] = float(pointwise.max()) if pointwise.size else 0.0
         if diff.size:
             worst[q] = labels[q][int(diff.max(axis=1).argmax())]
-    return ErrorEstimate(totals, per_interval, scales["multipliers"], scales["inputs"], worst)
+    # The states' difference less its value at the start of each interval: what the interval adds to it.
+    drift = values["states"] - reference["states"]
+    starts = np.searchsorted(owner, np.arange(intervals))
+    local = np.zeros(intervals)
+    if drift.size:
+        np.maximum.at(local, owner, np.abs(drift - drift[:, starts[owner]]).max(axis=0))
+    return ErrorEstimate(totals, per_interval, scales["multipliers"], scales["inputs"], worst, local_states=local)
 
 
 def resolution(solution, companion, values: np.ndarray, reference: np.ndarray) -> tuple[float, float]:
@@ -182,8 +210,10 @@ def estimate_error(solution, companion, safety: float = SAFETY, windows=(), swit
     est.objective_change, est.state_change = resolution(solution, companion, ours["states"], theirs["states"])
     est.totals = {q: safety * v for q, v in est.totals.items()}
     est.per_interval = {q: safety * v for q, v in est.per_interval.items()}
+    est.local_states = safety * est.local_states
     for w in switches:
         est.per_interval["states"][w.interval] = max(est.per_interval["states"][w.interval], w.effect)
+        est.local_states[w.interval] = max(est.local_states[w.interval], w.effect)
         est.totals["states"] = max(est.totals["states"], w.effect)
     _kink_floor(solution, est, switches)
     if solution.transcription.layout.free_time:

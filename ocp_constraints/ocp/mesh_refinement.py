@@ -21,7 +21,9 @@
    time that is a variable); the states' estimate is at least the switch's own effect;
 4. stop when the estimate of the states (absolute, SI units) and of the multipliers (relative
    to the largest load) is at most ``tolerance`` and no switch is left inside an interval; else
-   refine every interval whose estimate exceeds it, an hp rule after Patterson, Hager and Rao (2014)
+   refine every interval whose share of the estimate exceeds it (the states' share: where their difference
+   from the companion changes, not where an error made earlier is carried along,
+   :meth:`.error_estimate.ErrorEstimate.refinement_ratio`), an hp rule after Patterson, Hager and Rao (2014)
    (:func:`refine`): a smooth interval gets the degree that a fall of the error of about 4x per
    degree predicts, up to :data:`MAX_DEGREE`, else it is split at that degree into as many pieces as
    the rest of the error needs; an interval refined last time whose estimate fell less than tenfold
@@ -307,7 +309,7 @@ def solve_to_tolerance(problem, tolerance, method=None, ipopt_options: dict | No
         if retried:
             entry["warm_retries"] = retried
         entry.update(**est.as_dict())
-        ratio = np.max([est.per_interval[q] for q in GATED], axis=0) / tol
+        ratio = est.refinement_ratio(tol, GATED)      # where the error is made (ErrorEstimate.refinement_ratio)
         record.update(mesh=entry["mesh"], degrees=entry["degrees"], estimate=entry["estimate"], worst=entry["worst"],
                       total_time_s=total, total_cpu_s=total_cpu, refinements=r)
         if not est.resolved:
