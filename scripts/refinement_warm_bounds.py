@@ -13,25 +13,18 @@ from __future__ import annotations
 import argparse
 import sys
 import time
-from pathlib import Path
 
 import ocp_constraints.ocp.mesh_refinement as mr
 
-ROOT = Path(__file__).resolve().parents[1]
 LIBRARY = dict(mr.WARM_IPOPT)
 IPOPT_PUSH = {**LIBRARY, "ipopt.bound_push": 1e-2, "ipopt.bound_frac": 1e-2}
 
 
 def problem(name: str):
     if name == "bryson_denham":
-        source = (ROOT / "examples" / "bryson_denham.py").read_text().split("sol = ocp.solve")[0]
-        argv, sys.argv = sys.argv, ["bryson_denham.py"]
-        try:
-            scope: dict = {}
-            exec(compile(source, "examples/bryson_denham.py", "exec"), scope)
-        finally:
-            sys.argv = argv
-        return scope["ocp"]
+        from bryson_denham_refinement import problem as bryson_denham     # this folder's: the example's own code
+
+        return bryson_denham()
     from ocp_constraints.scenes.registry import build_task
 
     scene, task = name.split(".")
@@ -42,8 +35,8 @@ def run(name: str, tolerance: float, warm: dict) -> str:
     mr.WARM_IPOPT = warm
     solves, timed = [], mr._timed_solve
 
-    def counted(problem_, scheme, options, start, progress, first=None):
-        out = timed(problem_, scheme, options, start, progress, first)
+    def counted(problem_, scheme, options, start, progress, first=None, fallback=None):
+        out = timed(problem_, scheme, options, start, progress, first, fallback)
         solves.append((scheme.point_count, out[0].iterations))
         return out
 

@@ -9,8 +9,7 @@
    the cheapest fixed mesh whose true error meets the tolerance.
 2. Minimum-time swing-up (|tau| <= 5 N m, bang-bang) and the rolling-disk drive (friction cone
    switching): the final hp mesh (where its intervals are) against uniform Radau meshes of the
-   same accuracy. These have no closed-form reference: errors are against fine solutions on other
-   meshes (named in the table), so they measure the discretization, not the equations.
+   same accuracy, errors against fine solutions on other meshes (named in the table): the discretization's.
 
 Errors are measured the same way for every row (:func:`~ocp_constraints.ocp.error_estimate.compare`): states
 (coordinates and speeds) absolute in SI units, multipliers relative to the reference's largest load, both the
@@ -242,8 +241,7 @@ SWITCHING = {
     "minimum-time swing-up": (lambda coordinates: minimum_time_swing_up(coordinates),
                               lambda make: MinimumTimeReference(make().solve(Radau(160, degree=3))),
                               "one-switch bang-bang by shooting (DOP853 rtol 1e-13), hand hinge loads", (1e-3,)),
-    # Radau 3 N = 800, not 200: N = 200 differs from it by 1.9e-5 in the states and 1.4e-4 in the multipliers (N = 400 by
-    # 2.5e-6 and 6.7e-5), the size of the 1e-4 row's own errors; the friction cone's kinks make multipliers converge like h.
+    # N = 800: N = 200 was 1.9e-5 / 1.4e-4 (states / multipliers) off it, the 1e-4 row's own size (N = 400: 2.5e-6 / 6.7e-5).
     "rolling_disk drive": (lambda coordinates: _task("rolling_disk", "drive", coordinates),
                            lambda make: _FineReference(make().solve(Radau(800, degree=3))), "fine uniform radau3 N=800",
                            (1e-3, 1e-4)),
