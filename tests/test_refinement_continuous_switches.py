@@ -109,3 +109,18 @@ def test_a_tangential_junction_is_found_where_the_square_root_of_the_distance_re
     s, eps = activity(w, -np.inf, VMAX)
     [(at, _, _, _)] = locate(t, w, s, -np.inf, VMAX, eps, jumps=True, through_active=True)
     assert abs(at - t1) < 1e-12
+
+
+def test_a_position_bound_reached_with_zero_speed_and_acceleration_is_found_where_the_cube_root_reaches_it():
+    """Bryson and Denham's wall (Bryson and Ho sec. 3.11): x = l (1 - (1 - t / (3 l))^3) reaches x = l = 1/9 at
+    t = 3 l = 1/3 with zero speed and acceleration, its distance from the wall cubic in time. Its points within
+    the activity threshold (2e-3 of the scale 1) start at t = 0.25, and the lines drawn for the distance and for
+    its square root from the free points before them reach the wall at 0.268 and 0.301 (the library located
+    0.3033 on Bryson-Denham's solution); the cube root's line lies on the third point too and reaches it at 1/3."""
+    wall = 1 / 9
+    t = np.round(np.arange(0.0, 0.5001, 0.01), 12)
+    x = np.where(t < 3 * wall, wall * (1 - np.clip(1 - t / (3 * wall), 0, None) ** 3), wall)
+    s, eps = activity(x, -1.0, wall)
+    assert s[25] == 1 and s[24] == 0
+    [(at, kind, i, j)] = locate(t, x, s, -1.0, wall, eps, jumps=False, through_active=True)
+    assert kind == "junction" and abs(at - 3 * wall) < 1e-9 and t[i] <= at <= t[j]

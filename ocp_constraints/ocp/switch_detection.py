@@ -23,9 +23,10 @@ the activity changes between two neighbouring points the switch is located betwe
   ``u_m`` at a point stands for the bound held over the matching part of its neighbourhood);
 - between a bound and a free arc (a junction, where the multipliers kink), where the free points reach
   the bound: the straight line through the two nearest, drawn for their distance from the bound (a
-  mixed constraint's slack grows linearly away from its junction) or for its square root (a speed
-  limit, or a load that follows the speeds, leaves its bound tangentially), whichever the third
-  nearest lies on more closely (:func:`_junction`), anywhere back along the run of points counted
+  mixed constraint's slack grows linearly away from its junction), for its square root (a speed
+  limit, or a load that follows the speeds, leaves its bound tangentially) or for its cube root (a
+  position bound reached with zero speed and acceleration, Bryson and Denham's wall), whichever the third
+  nearest lies on most closely (:func:`_junction`), anywhere back along the run of points counted
   active (within the activity threshold a tangential approach looks active early).
 
 A switch located in the first half of the gap between an interval's start and its first collocation
@@ -126,17 +127,19 @@ def _junction(t: np.ndarray, v: np.ndarray, bound: float, active: int, free: lis
     """Where the free points ``free`` (nearest first) reach ``bound``, kept between the active point ``active``
     and the nearest free point (their midpoint if the free points do not help). A quantity leaves a bound
     with a slope (an input; its distance ``d`` from the bound linear in time) or tangentially (a speed
-    limit, a load that follows the speeds: ``d`` quadratic, ``sqrt(d)`` linear); the line through the two
-    nearest free points is drawn for ``d`` and for ``sqrt(d)``, and the one on which the third nearest lies
-    more closely is taken (with two free points, ``d``'s). Drawn for ``d`` alone, a tangential approach
-    reaches the bound early: the hinge's speed limit of scripts/refinement_holdouts.py (Radau 5 to 7, 1e-3),
-    at 0.625 s for 0.6438 s, a mesh point before the kink's interval."""
+    limit, a load that follows the speeds: ``d`` quadratic, ``sqrt(d)`` linear; a position bound reached with
+    zero speed and acceleration, ``d`` cubic, ``cbrt(d)`` linear); the line through the two nearest free points
+    is drawn for ``d``, ``sqrt(d)`` and ``cbrt(d)``, and the one on which the third nearest lies most closely is
+    taken (with two free points, ``d``'s). Drawn for ``d`` alone, a tangential approach reaches the bound early:
+    the hinge's speed limit of scripts/refinement_holdouts.py (Radau 5 to 7, 1e-3), at 0.625 s for 0.6438 s, a
+    mesh point before the kink's interval; drawn for ``sqrt(d)`` at most, Bryson-Denham's wall (junctions at 1/3
+    and 2/3 of the horizon) was located at 0.3033 and 0.6982, now 0.33333 and 0.66666."""
     lo, hi = sorted((t[active], t[free[0]]))
     if len(free) < 2:
         return 0.5 * (lo + hi)
     d = np.abs(v[free[:3]] - bound)
     fits = []       # (how far the third point is off the line, relative; where the line reaches zero)
-    for y in (d, np.sqrt(d)) if len(free) >= 3 else (d,):
+    for y in (d, np.sqrt(d), np.cbrt(d)) if len(free) >= 3 else (d,):
         if y[1] != y[0]:
             slope = (y[1] - y[0]) / (t[free[1]] - t[free[0]])
             at = t[free[0]] - y[0] / slope
