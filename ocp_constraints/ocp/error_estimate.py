@@ -262,7 +262,6 @@ def _kink_floor(solution, est, switches) -> None:
             est.totals[q] = max(est.totals[q], model)
 
 
-
 # An interval whose inputs' or multipliers' last Legendre coefficient, over their largest after the
 # mean, is above this fraction of what a unit step between two of its points gives at the least
 # (:func:`_step_ratio`), is not smooth. A jump's coefficients do not fall (a step: 0.52 of the

@@ -12,6 +12,18 @@ from .error_estimate import DECAY_LIMIT
 MIN_INTERVAL = 1e-6     # fraction of the horizon below which an interval is not split further
 
 
+def _untrusted(sol, tol: float, smoothness: tuple, windows) -> tuple[np.ndarray, np.ndarray]:
+    """The mesh (fractions), and per interval whether its inputs or multipliers are not smooth (Legendre decay above
+    :data:`.error_estimate.DECAY_LIMIT`), its last term above ``tol``, and its middle outside every jump window."""
+    decay, tail = smoothness
+    mesh = sol.transcription.scheme.mesh_fractions
+    mid = (mesh[:-1] + mesh[1:]) / 2
+    in_window = np.zeros(len(mid), bool)
+    for lo, hi in windows:
+        in_window |= (mid > lo) & (mid < hi)
+    return mesh, (decay > DECAY_LIMIT) & (tail > tol) & ~in_window
+
+
 def flag_nonsmooth(sol, tol: float, record: dict, smoothness: tuple, windows=()) -> None:
     """Withdraw "met" where the estimate cannot be trusted (and say so where it is not met either):
     intervals whose inputs or multipliers are not smooth (their Legendre coefficients fall no faster
@@ -25,12 +37,7 @@ def flag_nonsmooth(sol, tol: float, record: dict, smoothness: tuple, windows=())
     input's bounds was located from the bounds and has a mesh point within its bracket; the states'
     estimate covers it (continuous, compared everywhere), the inputs and multipliers are left out of
     theirs there, and the record says so (``jump_windows``, and the message). ``smoothness``: ``legendre_decay(sol)``."""
-    decay, tail = smoothness
-    mesh = sol.transcription.scheme.mesh_fractions
-    mid = (mesh[:-1] + mesh[1:]) / 2
-    in_window = np.zeros(len(mid), bool)
-    for lo, hi in windows:
-        in_window |= (mid > lo) & (mid < hi)
+    mesh, untrusted = _untrusted(sol, tol, smoothness, windows)
     if windows:
         merged = sorted({(round(lo, 9), round(hi, 9)) for lo, hi in windows})
         record["jump_windows"] = [[float(lo), float(hi)] for lo, hi in merged]
@@ -38,7 +45,7 @@ def flag_nonsmooth(sol, tol: float, record: dict, smoothness: tuple, windows=())
                               + ", ".join(f"{lo:.5g}-{hi:.5g}" for lo, hi in merged[:4])
                               + " of the horizon: located from the bounds with a mesh point inside, their estimate "
                               "leaves these windows out (their error there is the jump's size), the states' does not")
-    bad = np.flatnonzero((decay > DECAY_LIMIT) & (tail > tol) & ~in_window)
+    bad = np.flatnonzero(untrusted)
     if not len(bad):
         return
     record["nonsmooth_intervals"] = [[float(mesh[k]), float(mesh[k + 1])] for k in bad]
@@ -47,7 +54,7 @@ def flag_nonsmooth(sol, tol: float, record: dict, smoothness: tuple, windows=())
         f"{', but' if record['message'].startswith('estimated') else '; and the estimate is'} not trusted: the inputs "
         f"or multipliers are not smooth on {len(bad)} interval(s), at fractions {spots} "
         f"of the horizon (a switch inside: their Legendre coefficients fall as slowly as a "
-        f"step's, up to {decay[bad].max():.2f} of it); a higher degree resolves a jump no better, so the "
+        f"step's, up to {smoothness[0][bad].max():.2f} of it); a higher degree resolves a jump no better, so the "
         f"estimate is no upper bound there. Put a mesh point at the switch (Radau(mesh=...)) or accept the error "
         f"near it"))
 
@@ -58,11 +65,6 @@ def nonsmooth_splits(sol, tol: float, smoothness: tuple, windows=()) -> dict[int
     halved, for :func:`refine`. No bound located a switch there, so the middle; the next solution says
     whether a polynomial follows each half (rolling-disk drive at 1e-3: the first interval, its friction
     cone active up to a mesh point, decay 0.50 of a step's at degree 3). ``smoothness``: ``legendre_decay(sol)``."""
-    decay, tail = smoothness
-    mesh = sol.transcription.scheme.mesh_fractions
-    mid = (mesh[:-1] + mesh[1:]) / 2
-    out = {}
-    for k in np.flatnonzero((decay > DECAY_LIMIT) & (tail > tol)):
-        if not any(lo < mid[k] < hi for lo, hi in windows) and mesh[k + 1] - mesh[k] > 2 * MIN_INTERVAL:
-            out[int(k)] = [float(mid[k])]
-    return out
+    mesh, untrusted = _untrusted(sol, tol, smoothness, windows)
+    return {int(k): [float((mesh[k] + mesh[k + 1]) / 2)] for k in np.flatnonzero(untrusted)
+            if mesh[k + 1] - mesh[k] > 2 * MIN_INTERVAL}
