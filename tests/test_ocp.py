@@ -145,6 +145,9 @@ def test_bad_transcription_and_problem_input_is_named():
         Radau(10, degree=10)
     with pytest.raises(ModelError, match="mesh must be increasing"):
         Trapezoidal(mesh=(0.0, 0.6, 0.5, 1.0))
+    # Radau(6, 20): degree 6 on 20 intervals, or the reverse? Only the interval count may be positional.
+    with pytest.raises(TypeError, match="positional"):
+        Radau(6, 20)
     _, problem = build_task("pendulum", "swing_up")
     with pytest.raises(ModelError, match="no quantity named 'rod.spin'"):
         problem.bound("rod.spin", -1, 1)

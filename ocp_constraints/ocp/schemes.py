@@ -21,7 +21,7 @@ the transcription needs no case for non-uniform meshes or degrees.
 from __future__ import annotations
 
 import functools
-from dataclasses import dataclass, field
+from dataclasses import KW_ONLY, dataclass, field
 
 import casadi as ca
 import numpy as np
@@ -71,6 +71,9 @@ class Scheme:
     """Base class: a uniform mesh of ``intervals`` or a user-given ``mesh`` on ``[0, 1]``."""
 
     intervals: int = 50
+    # Everything after the interval count is named: ``Radau(20, 6)`` could mean 20 intervals of
+    # degree 6 or the reverse, so it is refused by Python instead of misread.
+    _: KW_ONLY
     mesh: tuple[float, ...] | None = None
     tau: np.ndarray = field(init=False, repr=False, compare=False)
 
@@ -183,6 +186,7 @@ class HermiteSimpson(Scheme):
 class Radau(Scheme):
     """Legendre-Gauss-Radau collocation of ``degree`` on every interval, or of ``degrees[k]`` on interval ``k``."""
 
+    _: KW_ONLY
     degree: int = 3
     degrees: tuple[int, ...] | None = None
 
@@ -278,16 +282,16 @@ def _radau_tables(degree: int) -> tuple[np.ndarray, np.ndarray]:
 @functools.lru_cache(maxsize=None)
 def _uniform_radau(degree: int) -> Radau:
     """The one-interval Radau scheme of ``degree`` (its tau, matrices and weights), shared."""
-    return Radau(1, None, degree=degree)
+    return Radau(1, degree=degree)
 
 
 def scheme_from_name(name: str, intervals: int = 50, degree: int = 3, mesh=None) -> Scheme:
     """``"trapezoidal"``, ``"hermite-simpson"`` or ``"radau"`` (with ``degree``)."""
     mesh = None if mesh is None else tuple(float(m) for m in mesh)
     if name == "trapezoidal":
-        return Trapezoidal(intervals, mesh)
+        return Trapezoidal(intervals, mesh=mesh)
     if name in ("hermite-simpson", "hermite_simpson"):
-        return HermiteSimpson(intervals, mesh)
+        return HermiteSimpson(intervals, mesh=mesh)
     if name == "radau":
-        return Radau(intervals, mesh, degree=degree)
+        return Radau(intervals, mesh=mesh, degree=degree)
     raise ModelError(f"unknown transcription '{name}': use trapezoidal, hermite-simpson or radau")
