@@ -30,6 +30,7 @@ import numpy as np
 
 from ..dynamics.result import Result
 from ..errors import KneeError
+from ..ocp.solver_threads import single_threaded_blas
 from ..output.signals import call_interruptibly
 from .knee_contact import KNEE_COORDINATES
 from .knee_model import CONTACT
@@ -239,6 +240,7 @@ def solve_static(t, Qc, R, A, F0, muscles_on: bool = True, contact_nonnegative: 
                                                   "ipopt.jac_c_constant": "yes", "ipopt.jac_d_constant": "yes",
                                                   "ipopt.mehrotra_algorithm": "yes", "ipopt.bound_relax_factor": 0.0,
                                                   **KKT_OPTIONS})
+    single_threaded_blas()
     built = time.perf_counter()
     lbx, ubx = np.full((nx, N), -np.inf), np.full((nx, N), np.inf)
     lbx[:nm], ubx[:nm] = 0.0, (1.0 if muscles_on else 0.0)

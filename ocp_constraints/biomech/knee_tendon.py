@@ -34,6 +34,7 @@ import casadi as ca
 import numpy as np
 
 from ..errors import KneeError
+from ..ocp.solver_threads import single_threaded_blas
 from ..output.signals import call_interruptibly
 from .knee_collocation import TAU_ACT, TAU_DEACT, CollocationResult, activation_rate, ode_defects
 from .knee_hill import hill_forces
@@ -145,6 +146,7 @@ def solve_tendon(t, Qc, R, A, F0, L_mt, V_mt, l_opt, l_slack, alpha0, passive_ro
     solver = ca.nlpsol("knee_tendon", "ipopt", nlp, {
         "ipopt.print_level": print_level, "print_time": False, "ipopt.sb": "yes", "ipopt.tol": tol,
         "ipopt.constr_viol_tol": 1e-10, "ipopt.max_iter": max_iter, **KKT_OPTIONS})
+    single_threaded_blas()
     built = time.perf_counter()
     lbx, ubx = np.full((nx, N), -np.inf), np.full((nx, N), np.inf)
     lbx[:iF], ubx[:iF] = 0.0, (1.0 if muscles_on else 0.0)

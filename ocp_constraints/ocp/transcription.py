@@ -40,6 +40,7 @@ from .interpolation import interpolation_matrix
 from .layout import Layout
 from .progress import IterationMonitor, stop_on_signals
 from .solution import OCPSolution
+from .solver_threads import single_threaded_blas
 from ..errors import ModelError, OCPSolveError
 from ..mechanics.state import project_positions
 from .schemes import Scheme
@@ -241,6 +242,7 @@ class Transcription(ElementKinds):
                 if refused is None:
                     raise
                 raise refused from None
+            single_threaded_blas()       # MUMPS's OpenBLAS, loaded by the first nlpsol (solver_threads)
             self._solver_options = opts
         setup = time.perf_counter() - started
         x0 = self.initial_guess() if warm_start is None else self.guess_from(warm_start)

@@ -1,0 +1,60 @@
+"""IPOPT's linear algebra on one thread, unless the user says otherwise.
+
+CasADi's IPOPT factors its KKT matrices with MUMPS, whose dense kernels run on the OpenBLAS that
+CasADi bundles (``libcasadi-tp-openblas``, loaded with the IPOPT plugin at the first
+``casadi.nlpsol``). That OpenBLAS starts one thread per core. The fronts of a collocation NLP are
+small, so the extra threads mostly wait for work, spinning. On 2 cores (medians of 3, each solve in
+its own process): the suite's quadrotor with a load refined to 1e-3 took 16.4 s of wall time and
+32 s of CPU with them, 4.7 s and 4.9 s on one thread; the walker, the cart-pole (refined, and on a
+fixed mesh of 4,000 points), the ball-and-socket reach and the swing-up took the same wall time
+both ways (ratios 0.96-1.01), and on one thread about half the CPU
+(``python scripts/solver_threads_bench.py``; ``results/bench/solver_threads.md``).
+
+So after an IPOPT solver is created, :func:`single_threaded_blas` limits that OpenBLAS (CasADi's
+copy only, not numpy's) to one thread, once per process, through threadpoolctl. A user who sets
+``OPENBLAS_NUM_THREADS`` or ``OMP_NUM_THREADS`` keeps their own choice: then nothing is changed.
+"""
+
+from __future__ import annotations
+
+import os
+
+from threadpoolctl import OpenBLASController, ThreadpoolController, register
+
+# The environment variables OpenBLAS reads for its thread count; one set by the user wins.
+USER_SETTINGS = ("OPENBLAS_NUM_THREADS", "GOTO_NUM_THREADS", "OMP_NUM_THREADS")
+
+
+class CasadiOpenBLAS(OpenBLASController):
+    """threadpoolctl's OpenBLAS controller, for the copy CasADi ships under its own file name."""
+
+    internal_api = "casadi_openblas"
+    filename_prefixes = ("libcasadi-tp-openblas",)
+
+
+register(CasadiOpenBLAS)
+_done = False
+
+
+def user_thread_setting() -> str | None:
+    """The first of :data:`USER_SETTINGS` set in the environment (``NAME=value``), or None."""
+    for name in USER_SETTINGS:
+        if os.environ.get(name):
+            return f"{name}={os.environ[name]}"
+    return None
+
+
+def single_threaded_blas() -> int:
+    """Limit CasADi's OpenBLAS to one thread (see the module's notes); call after ``casadi.nlpsol``,
+    which loads it. Returns how many copies were limited (0 once done, or when the user chose)."""
+    global _done
+    if _done or user_thread_setting() is not None:
+        return 0
+    found = ThreadpoolController().select(internal_api=CasadiOpenBLAS.internal_api).lib_controllers
+    for blas in found:
+        blas.set_num_threads(1)
+    # Set for good (not a context): hand back threadpoolctl's one-controlling-thread lock, which
+    # OpenBLAS controllers share, so a later threadpool_limits in any thread still works.
+    CasadiOpenBLAS.clear_controlling_thread()
+    _done = bool(found) and all(blas.get_num_threads() == 1 for blas in found)
+    return len(found) if _done else 0
