@@ -20,6 +20,7 @@ import casadi as ca
 import numpy as np
 
 from .compiled_elements import check_policy
+from .solver_threads import one_blas_thread
 from ..mechanics.equations import SystemEquations
 from ..errors import ModelError
 from ..mechanics.model import Model
@@ -235,6 +236,7 @@ class OptimalControlProblem:
                 self.coordinates, check_policy(self.compiled), () if self.nlp_coordinates == "maximal" else tuple(sorted(
                     (n, b) for n, b in self.bounds.items() if n not in self.model.inputs)))
 
+    @one_blas_thread
     def solve(self, method=None, ipopt_options: dict | None = None, warm_start=None, *, check: bool = True,
               progress: bool | None = None, starts: int = 1, seed: int = 0, client=None,
               tolerance: float | None = None):

@@ -3,23 +3,26 @@
 CasADi's IPOPT factors its KKT matrices with MUMPS, whose dense kernels run on the OpenBLAS that
 CasADi bundles (``libcasadi-tp-openblas``, loaded with the IPOPT plugin at the first
 ``casadi.nlpsol``). That OpenBLAS starts one thread per core. The fronts of a collocation NLP are
-small, so the extra threads mostly wait for work, spinning. On 2 cores (medians of 3, each solve in
-its own process): the suite's quadrotor with a load refined to 1e-3 took 16.4 s of wall time and
-32 s of CPU with them, 4.7 s and 4.9 s on one thread; the walker, the cart-pole (refined, and on a
-fixed mesh of 4,000 points), the ball-and-socket reach and the swing-up took the same wall time
-both ways (ratios 0.96-1.01), and on one thread about half the CPU
-(``python scripts/solver_threads_bench.py``; ``results/bench/solver_threads.md``).
+small, so the extra threads mostly wait for work, spinning, and numpy's own BLAS (the solutions'
+interpolation, the error estimates) does the same on our small products. On 2 cores (medians of 3,
+each solve in its own process, ``python scripts/solver_threads_bench.py``,
+``results/bench/solver_threads.md``): the suite's quadrotor with a load refined to 1e-3 took 16.9 s
+of wall time and 33 s of CPU with one thread per core, 4.6 s and 4.8 s on one; the walker, the
+cart-pole (refined, and on a fixed mesh of 4,000 points), the ball-and-socket reach and the swing-up
+took the same wall time both ways (ratios 0.95-1.04) and on one thread about half the CPU.
 
-So after an IPOPT solver is created, :func:`single_threaded_blas` limits that OpenBLAS (CasADi's
-copy only, not numpy's) to one thread, once per process, through threadpoolctl. A user who sets
+So after an IPOPT solver is created, :func:`single_threaded_blas` limits CasADi's OpenBLAS to one
+thread, once per process, through threadpoolctl, and :func:`one_blas_thread` holds numpy's BLAS to
+one thread while ``problem.solve`` runs, giving it back as it was afterwards. A user who sets
 ``OPENBLAS_NUM_THREADS`` or ``OMP_NUM_THREADS`` keeps their own choice: then nothing is changed.
 """
 
 from __future__ import annotations
 
+import functools
 import os
 
-from threadpoolctl import OpenBLASController, ThreadpoolController, register
+from threadpoolctl import OpenBLASController, ThreadpoolController, register, threadpool_limits
 
 # The environment variables OpenBLAS reads for its thread count; one set by the user wins.
 USER_SETTINGS = ("OPENBLAS_NUM_THREADS", "GOTO_NUM_THREADS", "OMP_NUM_THREADS")
@@ -58,3 +61,17 @@ def single_threaded_blas() -> int:
     CasadiOpenBLAS.clear_controlling_thread()
     _done = bool(found) and all(blas.get_num_threads() == 1 for blas in found)
     return len(found) if _done else 0
+
+
+def one_blas_thread(function):
+    """``function`` (a solve) run with every loaded BLAS on one thread, each given back its own count after
+    (see the module's notes); unchanged where the user chose a count (:func:`user_thread_setting`)."""
+
+    @functools.wraps(function)
+    def limited(*args, **kwargs):
+        if user_thread_setting() is not None:
+            return function(*args, **kwargs)
+        with threadpool_limits(limits=1, user_api="blas"):
+            return function(*args, **kwargs)
+
+    return limited
