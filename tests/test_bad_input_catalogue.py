@@ -621,6 +621,8 @@ CATALOGUE: dict[str, tuple[str, str, list[Case]]] = {
             "c", A.v[1])))(*rod()), E.ModelError, ("already has a constraint named 'c'",)),
         Case("a start at the 3-1-3 singularity (theta = 0)", lambda: (lambda m, b, A: hanging_state(m))(*rod(rotation="313")),
              E.SingularConfigurationError, ("body 'rod'", "quaternion")),
+        Case("simulate_scene(model): a model where a scene is expected", lambda: oc.simulate_scene(rod()[0], 0.1),
+             E.SceneError, ("simulate_scene needs a Scene", "Model")),
     ]),
     "ocp_problem": ("an optimal-control problem written by a new user", _R, [
         Case("subject_to(psi, 2.0, 1.0): a path constraint's bounds reversed", with_rod_ocp(

@@ -35,3 +35,10 @@ def test_hinge_force_and_both_constraint_moments_match_the_balance_about_the_hin
         assert np.allclose(lam[3:], M_c[:2], rtol=0, atol=1e-9 * m * g * L)
         assert np.allclose([loads[f"hinge.M_{a}"][k] for a in "xyz"], [lam[3], lam[4], 0.0], atol=1e-12)
         assert np.allclose([loads[f"hinge.point_{a}"][k] for a in "xyz"], 0.0, atol=1e-9)
+
+
+def test_simulate_scene_takes_a_scene_name_as_well_as_a_scene():
+    by_name = simulate_scene("pendulum", 0.2)
+    built = simulate_scene(build_scene("pendulum"), 0.2)
+    assert by_name.t[-1] == 0.2
+    np.testing.assert_array_equal(by_name.sample("rod.psi"), built.sample("rod.psi"))

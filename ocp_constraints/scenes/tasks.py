@@ -13,7 +13,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from ..mechanics.equations import SystemEquations
-from ..errors import SimulationError
+from ..errors import SceneError, SimulationError
 from ..errors import OCPSolveError
 from ..errors import interruption_reason
 from ..output.files import software_versions, write_csv, write_json
@@ -21,7 +21,7 @@ from ..output.plots import write_plots
 from ..output.report import write_report
 from ..output.sto import write_sto
 from ..output.run_folder import RunFolder
-from .registry import Scene
+from .registry import Scene, build_scene
 from ..dynamics.simulate import SimulationOptions, simulate
 from ..dynamics.trajectory import Trajectory
 from ..mechanics.state import consistent_state
@@ -62,8 +62,16 @@ def residuals(traj: Trajectory) -> tuple[float, float]:
     return traj.residuals()
 
 
-def simulate_scene(scene: Scene, t_final: float | None = None, options: SimulationOptions | None = None) -> Trajectory:
-    """Consistent initial state and forward simulation of ``scene`` (nothing written)."""
+def simulate_scene(scene: Scene | str | Path, t_final: float | None = None,
+                   options: SimulationOptions | None = None) -> Trajectory:
+    """Consistent initial state and forward simulation of ``scene`` (nothing written): a :class:`Scene`
+    (:func:`~.registry.build_scene`, with its parameters), or a built-in scene's name or a scene file,
+    built with its defaults."""
+    if isinstance(scene, (str, Path)):
+        scene = build_scene(str(scene))
+    elif not isinstance(scene, Scene):
+        raise SceneError(f"simulate_scene needs a Scene (oc.build_scene(name, overrides)) or a scene's name or file, "
+                         f"got {type(scene).__name__}")
     eqs = SystemEquations(scene.model)
     w0 = scene.inputs(0.0) if scene.inputs else None
     q0, u0 = consistent_state(eqs, scene.coordinates, scene.rates, inputs=w0)
