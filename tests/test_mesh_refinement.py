@@ -267,3 +267,28 @@ def test_a_warm_solve_stopped_at_its_iteration_cap_is_solved_again_with_ipopts_o
     assert len(retries) == sum(h["solves"] for h in capped["history"]) - 1      # every solve but the first, cold
     assert all(r["status"] == "Maximum_Iterations_Exceeded" and r["iterations"] == 1 for r in retries)
     assert not any("warm_retries" in h for h in plain["history"])
+
+
+def test_a_mesh_ipopt_cannot_solve_stops_the_refinement_with_the_last_estimated_solution(monkeypatch):
+    """The third solve (the first after refinement 0's estimate) capped at one IPOPT iteration, warm attempt and retry
+    alike: IPOPT really stops (Maximum_Iterations_Exceeded); the refinement stops there, 'met' False, and returns
+    refinement 0's solution with its own estimate and a message saying what failed and what is returned."""
+    import ocp_constraints.ocp.mesh_refinement as mr
+
+    solves, real = [], mr._timed_solve
+
+    def timed_solve(problem, scheme, ipopt_options, warm_start, progress, first=None, fallback=None):
+        solves.append(scheme)
+        if len(solves) == 3:
+            ipopt_options = {**ipopt_options, "ipopt.max_iter": 1}
+            fallback = {**(fallback or {}), "ipopt.max_iter": 1}
+        return real(problem, scheme, ipopt_options, warm_start, progress, first, fallback)
+
+    monkeypatch.setattr(mr, "_timed_solve", timed_solve)
+    sol = mr.solve_to_tolerance(build_task("pendulum", "swing_up")[1], 1e-9, Radau(4, degree=3))
+    record = sol.mesh_refinement
+    assert len(solves) == 3 and not record["met"]
+    assert sol.success and sol.transcription.scheme.mesh_fractions.tolist() == solves[0].mesh_fractions.tolist()
+    assert record["estimate"] == record["history"][0]["estimate"]
+    assert "Maximum_Iterations_Exceeded" in record["history"][1]["failed"]
+    assert record["message"].startswith("stopped at refinement 1") and "solution of refinement 0 (4 intervals" in record["message"]

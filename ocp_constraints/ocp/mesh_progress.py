@@ -88,3 +88,17 @@ def interrupted(record: dict, refinement: int, latest):
     if latest is not None:
         latest.mesh_refinement = record
     return OCPSolveError(record["message"], latest)
+
+
+def gave_up(record: dict, refinement: int, exc: OCPSolveError, previous) -> str:
+    """The message of a refinement stopped because IPOPT did not solve one of its meshes (``exc``, its status
+    and iterations; the warm attempt and the retry with IPOPT's own options both failed) while ``previous``,
+    the last solution whose error was estimated, is at hand: that solution is returned, "met" False."""
+    scheme = previous.transcription.scheme
+    said = str(exc).split("; the last iterate")[0]
+    est, tol = record["estimate"], record["tolerance"]
+    above = " above the tolerance" if max(est["states"], est["multipliers"]) > tol else ""
+    return (f"stopped at refinement {refinement}: {said}, also with IPOPT's own options. Returned: the solution of "
+            f"refinement {refinement - 1} ({scheme.intervals} intervals, {scheme.point_count} points) with its estimate "
+            f"(states {est['states']:.1e}, multipliers {est['multipliers']:.1e}){above}; accept a larger tolerance, or "
+            f"pass more IPOPT iterations ('ipopt.max_iter') to solve the next mesh")

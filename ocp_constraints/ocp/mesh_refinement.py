@@ -62,7 +62,7 @@ from ..errors import ModelError, OCPSolveError
 from .error_estimate import DECAY_LIMIT, UNRESOLVED_OBJECTIVE, UNRESOLVED_STATE, estimate_error, legendre_decay
 from .mesh_companions import (MAX_DEGREE, _degrees, _ends, as_fine, companion_of, finer, finer_at_hand,
                               pilot_of, pilot_pieces, reused_degree, split_pieces, uniform_step)
-from .mesh_progress import interrupted, stall_message
+from .mesh_progress import gave_up, interrupted, stall_message
 from .nonsmooth import MIN_INTERVAL, flag_nonsmooth, nonsmooth_splits
 from .schemes import Radau
 from .switch_detection import detect_switches, jump_windows, split_points, touched
@@ -96,6 +96,10 @@ AT_HAND = 3              # solutions kept as possible judges of later meshes
 # The suite's quadrotor from Radau 5 N = 10: its pilot took 149 iterations and 49 s of CPU to a worse optimum
 # (J = 123.386) with WARM_IPOPT, 6 iterations to J = 123.253 without; a mesh 1e-16 apart took 4 with it.
 WARM_FACTOR, WARM_MIN_ITER = 3, 30
+# The retry with IPOPT's own options is capped too, at this many times the first mesh's cold iterations: the
+# suite's four-bar at 1e-3 once spent 2,255 iterations and 771 s of CPU on one companion (the robustness notes,
+# session 11). Past the cap the refinement stops and returns the last solution whose error was estimated.
+FALLBACK_FACTOR, FALLBACK_MIN_ITER = 10, 100
 
 
 def check_tolerance(tolerance) -> float:
@@ -247,8 +251,11 @@ def solve_to_tolerance(problem, tolerance, method=None, ipopt_options: dict | No
         last solution is returned with ``mesh_refinement["met"]`` False and the reason.
 
     Returns the :class:`~ocp_constraints.ocp.solution.OCPSolution` on the last mesh, with ``mesh_refinement`` filled
-    in (see the module's notes). A failed IPOPT solve, or Ctrl-C, raises :class:`~ocp_constraints.errors.OCPSolveError`
-    whose ``solution.mesh_refinement`` holds the history so far (:func:`.mesh_progress.interrupted`)."""
+    in (see the module's notes). A mesh IPOPT does not solve (its warm attempt and the retry with IPOPT's own options,
+    capped at :data:`FALLBACK_FACTOR` times the first mesh's cold iterations) stops the refinement, "met" False, with
+    the last solution whose error was estimated (:func:`.mesh_progress.gave_up`). If none was estimated yet, or on
+    Ctrl-C, :class:`~ocp_constraints.errors.OCPSolveError` is raised, its ``solution.mesh_refinement`` holding the
+    history so far (:func:`.mesh_progress.interrupted`)."""
     tol = check_tolerance(tolerance)
     scheme = start_scheme(method)
     options = dict(ipopt_options or {})
@@ -260,6 +267,7 @@ def solve_to_tolerance(problem, tolerance, method=None, ipopt_options: dict | No
     # one is among the last few; the older ones (each with its NLP and IPOPT instance) are let go.
     at_hand: list = []
     warm_options = {**WARM_IPOPT, **options}    # capped once the first mesh's cold solve has said how hard it is
+    fallback, previous = options, None          # previous: the last solution whose error was estimated
     for r in range(max_refinements + 1):
         entry = {"refinement": r, "intervals": scheme.intervals, "points": scheme.point_count,
                  "mesh": [float(m) for m in scheme.mesh_fractions], "degrees": [int(d) for d in _degrees(scheme)]}
@@ -270,10 +278,11 @@ def solve_to_tolerance(problem, tolerance, method=None, ipopt_options: dict | No
                 entry["solved_as_companion"] = True
             else:
                 sol, t_sol, c_sol = (_timed_solve(problem, scheme, options, None, progress, first) if warm is None else
-                                     _timed_solve(problem, scheme, warm_options, warm, progress, first, options))
+                                     _timed_solve(problem, scheme, warm_options, warm, progress, first, fallback))
             if first is None:
                 first = sol.transcription
                 warm_options = {**WARM_IPOPT, "ipopt.max_iter": max(WARM_MIN_ITER, WARM_FACTOR * sol.iterations), **options}
+                fallback = {"ipopt.max_iter": max(FALLBACK_MIN_ITER, FALLBACK_FACTOR * sol.iterations), **options}
             entry.update(iterations=0 if solved is not None else _iterations(sol), time_s=t_sol, cpu_s=c_sol)
             judge = finer_at_hand(scheme, at_hand) if r > 0 else None
             if solved is None:
@@ -285,11 +294,15 @@ def solve_to_tolerance(problem, tolerance, method=None, ipopt_options: dict | No
             else:
                 companion, t_comp, c_comp = _timed_solve(problem, pilot_of(scheme, pilot_pieces(sol, tol)) if r == 0
                                                          else companion_of(scheme),
-                                                         warm_options, sol, progress, first, options)
+                                                         warm_options, sol, progress, first, fallback)
                 at_hand.append(companion)
             del at_hand[:-AT_HAND]
             entry["solves"] = (solved is None) + (judge is None)
         except OCPSolveError as exc:
+            if previous is not None and exc.solution is not None and not exc.solution.status.startswith("interrupted"):
+                entry["failed"] = str(exc)
+                record["message"], sol = gave_up(record, r, exc, previous), previous
+                break
             record["message"] = f"refinement {r}: {exc}"
             if exc.solution is not None:
                 exc.solution.mesh_refinement = record
@@ -309,6 +322,7 @@ def solve_to_tolerance(problem, tolerance, method=None, ipopt_options: dict | No
         if retried:
             entry["warm_retries"] = retried
         entry.update(**est.as_dict())
+        previous = sol
         ratio = est.refinement_ratio(tol, GATED)      # where the error is made (ErrorEstimate.refinement_ratio)
         record.update(mesh=entry["mesh"], degrees=entry["degrees"], estimate=entry["estimate"], worst=entry["worst"],
                       total_time_s=total, total_cpu_s=total_cpu, refinements=r)
