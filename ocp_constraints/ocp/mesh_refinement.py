@@ -3,7 +3,8 @@
 ``problem.solve(tolerance=1e-6)`` starts from a coarse Radau mesh and repeats:
 
 1. solve on the current mesh (warm-started from the previous refinement's companion; a warm solve that its start
-   misleads is stopped and solved again with IPOPT's own options, :data:`WARM_FACTOR`);
+   misleads is stopped and solved again with IPOPT's own options, :data:`WARM_FACTOR`, that retry capped too,
+   :data:`FALLBACK_FACTOR`; a mesh neither solves ends the refinement with the last estimated solution);
 2. judge it against a *companion*: a solution at hand that is finer everywhere, if there is one
    (:func:`.mesh_companions.finer`: each interval halved at a degree at least its own, or kept at two
    degrees more; no solve), else the same mesh with every degree raised by two, solved warm from 1
