@@ -19,7 +19,7 @@ import time
 import casadi as ca
 import numpy as np
 
-from ..ocp.solver_threads import single_threaded_blas
+from ..ocp.solver_threads import ipopt_solver
 from .ocp_suite_minimal import Minimal
 
 IPOPT = {"ipopt.tol": 1e-10, "ipopt.constr_viol_tol": 1e-10, "ipopt.max_iter": 3000, "ipopt.print_level": 0,
@@ -127,8 +127,7 @@ def collocate(mp: Minimal, N: int, degree: int, ipopt: dict | None = None, start
     path_order[(nx + nz) * d:] = (nx + nz) * d + np.arange(g.numel() * d).reshape(d, -1).T.ravel()
     lbg, ubg = np.tile(glo[np.argsort(path_order)], N), np.tile(ghi[np.argsort(path_order)], N)
     nlp, derivatives = _gathered(interval, idx, n)
-    solver = ca.nlpsol("reference", "ipopt", nlp, {**IPOPT, **(ipopt or {}), **derivatives})
-    single_threaded_blas()
+    solver = ipopt_solver("reference", nlp, {**IPOPT, **(ipopt or {}), **derivatives})
     times = np.concatenate([(k + np.asarray(tau)) / N for k in range(N)])
     guess = np.zeros(n)
     guess[:nx] = mp.guess(0.0)[:, 0]

@@ -72,7 +72,7 @@ import numpy as np
 from .knee_static import (KKT_OPTIONS, LOAD_SCALE, RESERVE_WEIGHT, RESERVED, StaticResult, _balance_residual,
                           _block_diagonal, reserve_weight_rows)
 from ..errors import KneeError
-from ..ocp.solver_threads import single_threaded_blas
+from ..ocp.solver_threads import ipopt_solver
 from ..output.signals import call_interruptibly
 
 TAU_ACT = 0.015        # s, De Groote et al. 2016
@@ -187,11 +187,10 @@ def solve_collocation(t, Qc, R, A, F0, muscles_on: bool = True, contact_nonnegat
     weights[:2 * nm], weights[2 * nm + 5:] = 0.5 * w, reserve_weight_rows(reserve_weight, N) * w
     nlp = {"x": X, "f": ca.dot(ca.DM(weights.ravel(order="F")), X * X),
            "g": ca.vertcat(ca.mtimes(B, X) - ca.DM(rhs), ca.vec(defect))}
-    solver = ca.nlpsol("knee_col", "ipopt", nlp, {"ipopt.print_level": print_level, "print_time": False, "ipopt.sb": "yes",
-                                                   "ipopt.tol": tol, "ipopt.constr_viol_tol": 1e-10,
-                                                   "ipopt.max_iter": max_iter, **KKT_OPTIONS,
-                                                   **(ipopt_options or {})})
-    single_threaded_blas()
+    solver = ipopt_solver("knee_col", nlp, {"ipopt.print_level": print_level, "print_time": False, "ipopt.sb": "yes",
+                                             "ipopt.tol": tol, "ipopt.constr_viol_tol": 1e-10,
+                                             "ipopt.max_iter": max_iter, **KKT_OPTIONS,
+                                             **(ipopt_options or {})})
     built = time.perf_counter()
     lbx, ubx = np.full((nx, N), -np.inf), np.full((nx, N), np.inf)
     lbx[:2 * nm], ubx[:2 * nm] = 0.0, (1.0 if muscles_on else 0.0)

@@ -30,7 +30,7 @@ import numpy as np
 
 from ..dynamics.result import Result
 from ..errors import KneeError
-from ..ocp.solver_threads import single_threaded_blas
+from ..ocp.solver_threads import ipopt_solver
 from ..output.signals import call_interruptibly
 from .knee_contact import KNEE_COORDINATES
 from .knee_model import CONTACT
@@ -235,12 +235,11 @@ def solve_static(t, Qc, R, A, F0, muscles_on: bool = True, contact_nonnegative: 
     nlp = {"x": X, "f": ca.dot(ca.DM(weights.ravel(order="F")), X * X), "g": ca.mtimes(B, X) - ca.DM(rhs)}
     # a convex QP (quadratic effort, linear balances, bounds): Mehrotra's predictor-corrector, which IPOPT
     # recommends for convex QPs, takes 16 iterations instead of 39 (ngait_og5; the same loads to 1e-3 N)
-    solver = ca.nlpsol("knee_so", "ipopt", nlp, {"ipopt.print_level": 0, "print_time": False, "ipopt.sb": "yes",
-                                                  "ipopt.tol": 1e-8, "ipopt.hessian_constant": "yes",
-                                                  "ipopt.jac_c_constant": "yes", "ipopt.jac_d_constant": "yes",
-                                                  "ipopt.mehrotra_algorithm": "yes", "ipopt.bound_relax_factor": 0.0,
-                                                  **KKT_OPTIONS})
-    single_threaded_blas()
+    solver = ipopt_solver("knee_so", nlp, {"ipopt.print_level": 0, "print_time": False, "ipopt.sb": "yes",
+                                            "ipopt.tol": 1e-8, "ipopt.hessian_constant": "yes",
+                                            "ipopt.jac_c_constant": "yes", "ipopt.jac_d_constant": "yes",
+                                            "ipopt.mehrotra_algorithm": "yes", "ipopt.bound_relax_factor": 0.0,
+                                            **KKT_OPTIONS})
     built = time.perf_counter()
     lbx, ubx = np.full((nx, N), -np.inf), np.full((nx, N), np.inf)
     lbx[:nm], ubx[:nm] = 0.0, (1.0 if muscles_on else 0.0)

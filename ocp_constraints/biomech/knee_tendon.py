@@ -34,7 +34,7 @@ import casadi as ca
 import numpy as np
 
 from ..errors import KneeError
-from ..ocp.solver_threads import single_threaded_blas
+from ..ocp.solver_threads import ipopt_solver
 from ..output.signals import call_interruptibly
 from .knee_collocation import TAU_ACT, TAU_DEACT, CollocationResult, activation_rate, ode_defects
 from .knee_hill import hill_forces
@@ -143,10 +143,9 @@ def solve_tendon(t, Qc, R, A, F0, L_mt, V_mt, l_opt, l_slack, alpha0, passive_ro
     nlp = {"x": X, "f": ca.dot(ca.DM(weights.ravel(order="F")), X * X),
            "g": ca.vertcat(ca.mtimes(B, X) - passive_share - ca.DM(rhs), ca.vec(act_defect), ca.vec(ten_defect),
                            ca.vec(equilibrium))}
-    solver = ca.nlpsol("knee_tendon", "ipopt", nlp, {
+    solver = ipopt_solver("knee_tendon", nlp, {
         "ipopt.print_level": print_level, "print_time": False, "ipopt.sb": "yes", "ipopt.tol": tol,
         "ipopt.constr_viol_tol": 1e-10, "ipopt.max_iter": max_iter, **KKT_OPTIONS})
-    single_threaded_blas()
     built = time.perf_counter()
     lbx, ubx = np.full((nx, N), -np.inf), np.full((nx, N), np.inf)
     lbx[:iF], ubx[:iF] = 0.0, (1.0 if muscles_on else 0.0)

@@ -11,7 +11,7 @@ of wall time and 33 s of CPU with one thread per core, 4.6 s and 4.8 s on one; t
 cart-pole (refined, and on a fixed mesh of 4,000 points), the ball-and-socket reach and the swing-up
 took the same wall time both ways (ratios 0.95-1.04) and on one thread about half the CPU.
 
-So after an IPOPT solver is created, :func:`single_threaded_blas` limits CasADi's OpenBLAS to one
+So after an IPOPT solver is created (:func:`ipopt_solver`), :func:`single_threaded_blas` limits CasADi's OpenBLAS to one
 thread, once per process, through threadpoolctl, and :func:`one_blas_thread` holds numpy's BLAS to
 one thread while ``problem.solve`` runs, giving it back as it was afterwards. A user who sets
 ``OPENBLAS_NUM_THREADS`` or ``OMP_NUM_THREADS`` keeps their own choice: then nothing is changed.
@@ -22,6 +22,7 @@ from __future__ import annotations
 import functools
 import os
 
+import casadi as ca
 from threadpoolctl import OpenBLASController, ThreadpoolController, register, threadpool_limits
 
 # The environment variables OpenBLAS reads for its thread count; one set by the user wins.
@@ -61,6 +62,14 @@ def single_threaded_blas() -> int:
     CasadiOpenBLAS.clear_controlling_thread()
     _done = bool(found) and all(blas.get_num_threads() == 1 for blas in found)
     return len(found) if _done else 0
+
+
+def ipopt_solver(name: str, nlp: dict, options: dict) -> ca.Function:
+    """``casadi.nlpsol(name, "ipopt", nlp, options)``, then CasADi's OpenBLAS on one thread (:func:`single_threaded_blas`):
+    every IPOPT solver of the library is made here."""
+    solver = ca.nlpsol(name, "ipopt", nlp, options)
+    single_threaded_blas()
+    return solver
 
 
 def one_blas_thread(function):

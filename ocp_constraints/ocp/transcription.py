@@ -40,7 +40,7 @@ from .interpolation import interpolation_matrix
 from .layout import Layout
 from .progress import IterationMonitor, stop_on_signals
 from .solution import OCPSolution
-from .solver_threads import single_threaded_blas
+from .solver_threads import ipopt_solver
 from ..errors import ModelError, OCPSolveError
 from ..mechanics.state import project_positions
 from .schemes import Scheme
@@ -235,14 +235,13 @@ class Transcription(ElementKinds):
         if self._solver is None or opts != self._solver_options:
             self._monitor = IterationMonitor(self.nlp["x"].numel(), self.nlp["g"].numel())
             try:
-                self._solver = ca.nlpsol("ocp", "ipopt", self.nlp,
-                                         {**opts, **self.block.derivative_options, "iteration_callback": self._monitor})
+                self._solver = ipopt_solver("ocp", self.nlp,
+                                            {**opts, **self.block.derivative_options, "iteration_callback": self._monitor})
             except RuntimeError as exc:
                 refused = _refused_options(str(exc), ipopt_options)
                 if refused is None:
                     raise
                 raise refused from None
-            single_threaded_blas()       # MUMPS's OpenBLAS, loaded by the first nlpsol (solver_threads)
             self._solver_options = opts
         setup = time.perf_counter() - started
         x0 = self.initial_guess() if warm_start is None else self.guess_from(warm_start)
