@@ -105,8 +105,8 @@ class ElementKinds:
         pr, e, lay, scheme = self.problem, self.eqs, self.layout, self.scheme
         x, a, lam, w, index = s.x, s.a, s.lam, s.w, s.index
         n_eq = e.nu + e.nc + lay.nh
-        lo = [0.0] * n_eq + [pc.lower for pc in pr.path_constraints]
-        hi = [0.0] * n_eq + [pc.upper for pc in pr.path_constraints]
+        lo = [0.0] * n_eq + [pc.lower / path_scale(pc) for pc in pr.path_constraints]
+        hi = [0.0] * n_eq + [pc.upper / path_scale(pc) for pc in pr.path_constraints]
 
         def build_point():
             frac, quad, rows, cost = self._point_rows(s, a)
@@ -247,13 +247,25 @@ class ElementKinds:
             integrand = sum(term.weight * term.expression for term in pr.integral_terms)
             out["integrand"] = ca.Function("integrand", [x, lam, e.inputs, e.t], [integrand])
         if pr.path_constraints:
-            out["path"] = ca.Function("path", [x, lam, e.inputs, e.t], [ca.vertcat(*[c.expression for c in pr.path_constraints])])
+            out["path"] = ca.Function("path", [x, lam, e.inputs, e.t],
+                                      [ca.vertcat(*[c.expression / path_scale(c) for c in pr.path_constraints])])
         for term in pr.integral_terms + pr.path_constraints:
             extra = [s.name() for s in ca.symvar(term.expression) if not ca.depends_on(ca.vertcat(x, lam, e.inputs, e.t), s)]
             if extra:
                 raise ModelError(f"'{term.label}' uses {extra}, which are not quantities of model '{pr.model.name}'")
         out["named"] = {n: ca.Function("boundary", [x, e.inputs], [pr.quantity(n)]) for n in {**pr.initial_values, **pr.final_values}}
         return out
+
+
+def path_scale(constraint) -> float:
+    """The divisor of a path constraint's NLP row and bounds: its largest finite bound's magnitude, at least 1.
+
+    A load bound in the user's units (``|F|^2 <= (515 N)^2``) puts rows of ~1e5 beside rows of ~1 in one
+    NLP; IPOPT then crept at a small barrier parameter (a crane in minimum time under a rope-tension bound:
+    230 iterations, 31 with the row divided by its bound; ``tests/test_ocp_user_problems.py``). Only the
+    NLP's rows are scaled: values, violations and switches are evaluated from the expressions, in the
+    user's units."""
+    return max([1.0] + [abs(float(b)) for b in (constraint.lower, constraint.upper) if np.isfinite(b)])
 
 
 def _columns(rows: int, *blocks) -> np.ndarray:
