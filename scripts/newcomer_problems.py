@@ -1,4 +1,4 @@
-"""Six optimal-control problems a newcomer writes first, with the public API only (issue 13: "the
+"""Seven optimal-control problems a newcomer writes first, with the public API only (issue 13: "the
 result will also be checked on problems that are not in the suite"), each against an independent
 reference: Lagrange's equations in minimal coordinates, derived from the bodies' energies and
 transcribed in plain CasADi Opti with the same Radau collocation (tests/newcomer_reference.py), and
@@ -339,6 +339,60 @@ def wheel_loads(sol):
     return _newton(s, X, np.atleast_2d(sol.sample("axle")), [0], sol.loads(), "contact", [0, 2])
 
 
+# -- 6. a gantry crane in minimum time, the rope's tension bounded ---------------------------------------
+CRANE = dict(m_trolley=10.0, m_load=50.0, L=3.0, d=2.0, f_max=200.0, tension=1.05, swing=0.3)
+
+
+def crane():
+    """Trolley on a rail, load on a rigid rope hinged at the trolley; 2 m in minimum time, rest to rest, the
+    trolley's force and the load's swing bounded, the rope's pull on the load at most 1.05 of its weight (in N^2)."""
+    p = CRANE
+    model = oc.Model("crane", gravity=(0, -9.81, 0))
+    trolley = model.add_body("trolley", p["m_trolley"], 0.1 * np.eye(3), rotation="321")
+    load = model.add_body("load", p["m_load"], 0.5 * np.eye(3), rotation="321")
+    oc.joints.prismatic(model, "rail", trolley.com, axis=(1, 0, 0))
+    oc.joints.revolute(model, "rope", load.point("hook", (0, p["L"], 0)), other=trolley.com)
+    model.add_force("drive", trolley.com, ca.vertcat(model.add_input("F"), 0, 0))
+    ocp = oc.OptimalControlProblem(model, t_final=4.0, t_final_bounds=(0.5, 20.0))
+    ocp.initial({"trolley.x": 0.0, "load.psi": 0.0, "trolley.vbar_x": 0.0, "load.omega_z": 0.0})
+    ocp.final({"trolley.x": p["d"], "load.psi": 0.0, "trolley.vbar_x": 0.0, "load.omega_z": 0.0})
+    ocp.bound("F", -p["f_max"], p["f_max"])
+    ocp.bound("load.psi", -p["swing"], p["swing"])
+    ocp.subject_to(ca.sumsqr(ocp.joint_force("rope@load")), -np.inf, (p["tension"] * p["m_load"] * 9.81) ** 2,
+                   "rope tension")
+    ocp.minimize_final_time()
+    ocp.minimize_effort(weight=1e-6)
+    return ocp
+
+
+def crane_system():
+    p = CRANE
+    q, w = ca.SX.sym("q", 2), ca.SX.sym("w", 1)
+    x, swing = q[0], q[1]
+    bodies = [ref.RigidBody(p["m_trolley"], 0.1 * np.eye(3), ca.vertcat(x, 0, 0), ca.DM.eye(3)),
+              ref.RigidBody(p["m_load"], 0.5 * np.eye(3), ca.vertcat(x, 0, 0) + ref.rot3(swing) @ ca.DM([0, -p["L"], 0]),
+                            ref.rot3(swing))]
+    s = ref.LagrangeSystem(q, w, bodies, np.array([0, -9.81, 0]))
+    return ref.LagrangeSystem(q, w, bodies, np.array([0, -9.81, 0]), s.force_work(ca.vertcat(x, 0, 0),
+                                                                                     ca.vertcat(w[0], 0, 0)))
+
+
+def crane_reference(N, guess=None):
+    s, p = crane_system(), CRANE
+    v = ca.jtimes(s.bodies[1].x, s.q, s.qd)
+    F = p["m_load"] * (ca.jtimes(v, s.q, s.qd) + ca.jtimes(v, s.qd, s.qdd) - ca.DM(s.gravity))   # the rope's pull
+    path = [(ca.sumsqr(F), -np.inf, (p["tension"] * p["m_load"] * 9.81) ** 2), (s.q[1], -p["swing"], p["swing"])]
+    return ref.radau_solve(s, N, 4.0, 1e-6 * ca.sumsqr(s.w), {i: 0.0 for i in range(4)}, {0: p["d"], 1: 0.0, 2: 0.0, 3: 0.0},
+                           input_bounds=(-p["f_max"], p["f_max"]), path=path, guess_q=guess, free_time=(0.5, 20.0),
+                           time_weight=1.0)
+
+
+def crane_loads(sol):
+    s = crane_system()
+    X = np.vstack([sol.sample(n) for n in ("trolley.x", "load.psi", "trolley.vbar_x", "load.omega_z")])
+    return _newton(s, X, np.atleast_2d(sol.sample("F")), [1], sol.loads(), "rope@load", [0, 1, 2])
+
+
 PROBLEMS = {
     "arm": (arm, arm_reference, arm_loads, lambda sol: arm_state(sol)[:2]),
     "slider_crank": (slider_crank, crank_reference, crank_loads,
@@ -350,6 +404,7 @@ PROBLEMS = {
     "wheel": (wheel, wheel_reference, wheel_loads, lambda sol: np.vstack([sol.sample("disk.psi")])),
     "arm_free_time": (lambda: arm(free_time=True), lambda N, guess=None: arm_reference(N, guess, free_time=True),
                       arm_loads, lambda sol: arm_state(sol)[:2]),
+    "crane": (crane, crane_reference, crane_loads, lambda sol: np.vstack([sol.sample(n) for n in ("trolley.x", "load.psi")])),
 }
 
 
