@@ -6,7 +6,7 @@ poor optimum or run slowly from where the library starts it?
         [--candidate NAME ...] [--jobs 1] [--json PATH] [--markdown results/bench/ocp_default_robustness.md]
 
 The problems (none written or tuned for this table): the scene tasks (``ocp-constraints list``), the
-six suite problems (``bench/ocp_suite_run.PROBLEMS``, our side), the six newcomer problems
+six suite problems (``bench/ocp_suite_run.PROBLEMS``, our side), the seven newcomer problems
 (``scripts/newcomer_problems.py``), the examples' OCPs (``examples/*.py``, built as each script builds
 it) and the free-floating satellite of ``tests/test_ocp_quaternions.py``. Each run builds the problem
 from an empty model and solves it (``time.process_time`` and wall time of both); per run: IPOPT's
@@ -108,7 +108,7 @@ PROBLEMS = {
     **{f"suite:{n}": _suite(n) for n in ("acrobot", "cart_double_pendulum", "four_bar", "rolling_disk",
                                          "quadrotor_load", "walker")},
     **{f"newcomer:{n}": _newcomer(n) for n in ("arm", "slider_crank", "spherical", "cart_pole", "wheel",
-                                              "arm_free_time")},
+                                              "arm_free_time", "crane")},
     "example:cart_pole_by_hand": _example("cart_pole_by_hand.py"),
     "example:spherical_pendulum": _example("spherical_pendulum.py"),
     "example:swing_up": _example("swing_up.py"),
