@@ -8,8 +8,7 @@ from ..mechanics.rotations import EulerSequence
 
 
 def variable_bounds(tr, x0: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """``lbx, ubx``: the user's bounds on coordinates, speeds and inputs at every point (inputs: at every point
-    the scheme has them, :attr:`~.transcription_elements.ElementKinds.extrapolates_first_inputs`), the free
+    """``lbx, ubx``: the user's bounds on coordinates, speeds and inputs at every point, the free
     final time's bounds, and bands that keep Euler angles off their singularities."""
     lay, pr = tr.layout, tr.problem
     lo = [np.full(n, -np.inf) for n in lay.sizes()]
@@ -22,23 +21,13 @@ def variable_bounds(tr, x0: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
             lo[0][r :: lay.nx], hi[0][r :: lay.nx] = a, b
         elif name in names_w:
             r = names_w.index(name)
-            input_bounds(tr, lo[3], hi[3], r, a, b)
+            lo[3][r :: lay.n_in], hi[3][r :: lay.n_in] = a, b
         else:
             raise ModelError(f"bound on '{name}': only coordinates, speeds and inputs take bounds; use subject_to for rates")
     if lay.free_time:
         lo[5][:], hi[5][:] = pr.t_final_bounds
     _keep_away_from_euler_singularities(tr, lo[0], hi[0], names_x, x0[: lay.nx])
     return np.concatenate(lo), np.concatenate(hi)
-
-
-def input_bounds(tr, lo: np.ndarray, hi: np.ndarray, r: int, a: float, b: float) -> None:
-    """Input ``r``'s bounds ``[a, b]`` into the inputs' block ``lo, hi`` at every point; where t0's input is the
-    first interval's extrapolation (Radau), one bound-width beyond each bound there
-    (:attr:`~.transcription_elements.ElementKinds.extrapolates_first_inputs` says why)."""
-    n_in = tr.layout.n_in
-    lo[r::n_in], hi[r::n_in] = a, b
-    if tr.extrapolates_first_inputs:
-        lo[r], hi[r] = a - (b - a), b + (b - a)
 
 
 def _keep_away_from_euler_singularities(tr, lo, hi, names_x, x_start) -> None:

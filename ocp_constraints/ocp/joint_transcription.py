@@ -26,7 +26,7 @@ import numpy as np
 
 from ..errors import ModelError
 from ..mechanics.generalized import JointCoordinates
-from .bounds import _keep_away_from_euler_singularities, input_bounds
+from .bounds import _keep_away_from_euler_singularities
 from .guess import consistent_guess
 from .joint_guess import JointGuess
 from .solution import OCPSolution
@@ -99,7 +99,7 @@ class JointTranscription(Transcription):
         for name, (a, b) in pr.bounds.items():
             if name in names_w:
                 r = names_w.index(name)
-                input_bounds(self, lo[3], hi[3], r, a, b)
+                lo[3][r :: lay.n_in], hi[3][r :: lay.n_in] = a, b
             elif name not in self.problem.state_bounds:
                 raise ModelError(f"bound on '{name}': only coordinates, speeds and inputs take bounds; use subject_to "
                                  f"for rates")

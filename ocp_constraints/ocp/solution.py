@@ -128,10 +128,7 @@ class OCPSolution(Result):
                       np.maximum(c.lower - row, row - c.upper))
         for name, (lo, hi) in pr.bounds.items():
             v = self.sample(name)
-            amount = np.maximum(lo - v, v - hi)
-            if name in pr.model.inputs and tr.extrapolates_first_inputs:
-                amount[t == t[0]] = 0.0     # t0's inputs: an extrapolation, bounded only at the scheme's points
-            worst(f"bound on '{name}' [{lo:g}, {hi:g}]", amount)
+            worst(f"bound on '{name}' [{lo:g}, {hi:g}]", np.maximum(lo - v, v - hi))
         for which, values, k in (("initial", pr.initial_values, 0), ("final", pr.final_values, -1)):
             for name, v in values.items():
                 amount = abs(float(self.sample(name)[k]) - v)

@@ -182,20 +182,6 @@ class ElementKinds:
                                  _columns(len(ks), self.fractions[points], (mesh[ks + 1] - mesh[ks])[:, None], s.T_value)))
         return out
 
-    @property
-    def extrapolates_first_inputs(self) -> bool:
-        """Whether the inputs at t0 are the first interval's input polynomial extrapolated (Radau, whose defects
-        never read them; :meth:`_end_elements`), not values of their own. Then the inputs' bounds hold at the
-        collocation points (:func:`.bounds.variable_bounds`), and t0's within one bound-width beyond each bound: an
-        extrapolation held inside them restricts the first interval's inputs where the scheme has no point (a
-        crane in minimum time, its trolley force at its bound from the start, Radau 3 N = 20: T = 2.6373 s
-        against 2.6305 s for the same collocation without that row, ``python scripts/newcomer_problems.py
-        crane``; they agree to 1e-8 from N = 40). Not unbounded: that changed IPOPT's path enough to take the
-        swing-up's first mesh to another local optimum (J = 77.9 against 8.913, joint coordinates, Radau 5 N = 10)."""
-        e, lay = self.eqs, self.layout
-        return (not self.scheme.first_point_has_controls and lay.n_in > 0
-                and not ca.depends_on(ca.vertcat(ca.vec(e.G), e.e), e.inputs))
-
     def _end_elements(self, s) -> list:
         """Acceleration-level constraints at t0, Radau's input extrapolation, boundary values, final time."""
         pr, e, lay, scheme, index = self.problem, self.eqs, self.layout, self.scheme, s.index
@@ -207,7 +193,7 @@ class ElementKinds:
 
         out = [instances("acceleration", self._kind(s, ("acceleration",), build_acceleration),
                          [np.concatenate([index["x"](0), index["a"](0), index["w"](0)])], np.zeros((1, 0)))]
-        if self.extrapolates_first_inputs:
+        if not scheme.first_point_has_controls and lay.n_in and not ca.depends_on(ca.vertcat(ca.vec(e.G), e.e), e.inputs):
             # Radau never uses inputs at t0 in its defects: take the first interval's input
             # polynomial there, so that lambda_0 (from the acceleration constraint) is consistent.
             ell = self.local[0].start_extrapolation
