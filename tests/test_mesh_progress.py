@@ -65,3 +65,20 @@ def test_a_step_is_judged_from_the_growth_threshold_and_only_between_resolved_so
     unresolved = _history((16, 4.0), (31, 3.25), (281, 3.0), (600, 3.0))
     unresolved[2]["resolved"] = False
     assert stall_message(unresolved, 1e-4) is None               # the guard's uniform step, not a refinement
+
+
+def test_small_steps_that_never_lower_the_estimate_stop_once_they_grew_the_mesh_enough():
+    """The newcomer crane at 1e-5 (measured: the largest of the states' and multipliers' estimates): from 2,157
+    points each step grew the mesh 1.2-1.4x and raised the estimate; at 3,529 points the run has grown it 1.6x.
+    Before that (2,612 points, 1.2x) it goes on, and so do a run interrupted by a step that lowers the estimate
+    (the slider-crank above) and a plateau below the tolerance (met, its non-smooth intervals being halved)."""
+    crane = _history((51, 2.5), (197, 0.071), (498, 5.5e-3), (1044, 1.3e-3), (1408, 1.3e-3), (1877, 4.3e-4),
+                     (2157, 3.9e-4), (2612, 5.6e-4), (3529, 5.7e-4))
+    for h in crane:
+        h["estimate"]["multipliers"] = h["estimate"]["states"]
+    assert all(stall_message(crane[:k], 1e-5) is None for k in range(2, 9))
+    msg = stall_message(crane, 1e-5)
+    assert msg is not None and "the last 2 refinements grew the mesh 1.6x (2157 -> 3529 points)" in msg
+    met_plateau = _history((51, 2.5), (127, 0.12), (225, 0.033), (323, 5.6e-3), (379, 1.1e-2), (414, 8.1e-4),
+                           (442, 8.1e-4), (600, 8.2e-4), (700, 8.3e-4))
+    assert stall_message(met_plateau, 1e-3) is None     # at or below the tolerance: never a stall
