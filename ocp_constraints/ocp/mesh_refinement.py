@@ -41,7 +41,8 @@
    (no bound located a switch there), that interval is halved and the refinement goes on
    (:func:`.nonsmooth.nonsmooth_splits`); on the last refinement such intervals withdraw "met" and are named
    (:func:`.nonsmooth.flag_nonsmooth`): there the companion is no upper bound;
-6. stop ("met" not claimed) when more points no longer pay: a second stall, or one with no progress (:mod:`.mesh_progress`).
+6. stop ("met" not claimed) when more points no longer pay: a second stall, one with no progress, or a run of small
+   steps that never lowered the estimate (:mod:`.mesh_progress`).
 
 Every mesh is transcribed in the problem's own coordinates (joint coordinates under the default
 ``coordinates="auto"`` where they apply); the estimate reads states and multipliers by name.
