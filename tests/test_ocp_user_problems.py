@@ -209,6 +209,35 @@ def test_a_load_bound_in_newtons_squared_solves_as_fast_as_the_same_bound_scaled
     assert tension.max() == pytest.approx(1.05 * 50.0 * 9.81, rel=1e-6)
 
 
+def test_a_friction_cone_on_a_heavy_wheel_costs_ipopt_no_more_than_on_a_light_one():
+    """A wheel rolling up a slope in a friction cone (examples/wheel_on_slope.py's problem, written here): at 2 kg
+    and at 2,000 kg the same motion, the optimum scaled by the mass squared. The cone's rows, 0-bounded, are in
+    N^2: unscaled, IPOPT took 56 iterations at 2 kg and 229 at 2,000 kg (Radau 3 N = 20); divided by the model's
+    weight (squared), 12 and 21."""
+    def wheel(m):
+        model = oc.Model("wheel", gravity=(-9.81 * math.sin(0.35), 0.0, -9.81 * math.cos(0.35)))
+        disk = model.add_body("disk", m, m * 0.04 * np.diag([0.25, 0.5, 0.25]), rotation="213")
+        E = [ca.DM.eye(3)[:, k] for k in range(3)]
+        model.add_constraint("plane.v2", ca.dot(E[1], disk.com.v), joint="plane", position=disk.com.position[1])
+        model.add_constraint("plane.w1", ca.dot(E[0], disk.omega), joint="plane")
+        model.add_constraint("plane.w3", ca.dot(E[2], disk.omega), joint="plane")
+        contact = disk.com.v + ca.cross(disk.omega, ca.DM([0, 0, -0.2]))
+        model.add_constraint("contact.t", ca.dot(E[0], contact), joint="contact")
+        model.add_constraint("contact.n", ca.dot(E[2], contact), joint="contact", position=disk.com.position[2] - 0.2)
+        model.add_torque("axle", disk, ca.vertcat(0, model.add_input("axle"), 0))
+        ocp = oc.OptimalControlProblem(model, t_final=1.5)
+        ocp.initial({"disk.x": 0.0, "disk.psi": 0.0, "disk.theta": 0.0, "disk.phi": 0.0, "disk.vbar_x": 0.0})
+        ocp.final({"disk.x": 1.0, "disk.vbar_x": 0.0})
+        ocp.minimize_effort()
+        ocp.friction_cone("contact", 0.6)
+        return ocp.solve(oc.Radau(20, degree=3))
+
+    light, heavy = wheel(2.0), wheel(2000.0)
+    assert light.success and heavy.success
+    assert heavy.objective == pytest.approx(light.objective * 1000.0**2, rel=1e-7)
+    assert heavy.iterations <= 2 * light.iterations
+
+
 def test_radaus_input_at_t0_held_in_its_bounds_costs_the_crane_only_on_a_coarse_mesh():
     """Radau has no collocation point at t0; its input there is the first interval's polynomial extrapolated and
     is held inside the input's bounds (README, "Known limitations"). The crane's trolley force starts at its
