@@ -48,7 +48,7 @@ from .guess import consistent_guess
 from .layout import Layout
 from .nlp_assembly import element
 from .solution import OCPSolution
-from .transcription_elements import path_scale
+from .transcription_elements import scaled_path_bounds
 from .transcription import Transcription
 from ..dynamics.trajectory import Trajectory
 from ..errors import ModelError
@@ -154,8 +154,7 @@ class CondensedTranscription(Transcription):
                                [np.concatenate([index["x"](i), index["w"](i), index["lam"](i), index["T"]])
                                 for i in range(lay.n_points)],
                                [[self.fractions[i], self.quadrature[i], *s.T_value] for i in range(lay.n_points)],
-                               [c.lower / path_scale(c) for c in pr.path_constraints],
-                               [c.upper / path_scale(c) for c in pr.path_constraints]))
+                               *scaled_path_bounds(pr.path_constraints)))
         held = [0, *lay.slack_points]
         # Where each held point's position rows are (after G u + e = 0): Transcription._fixed_length_rows.
         self.position_rows_at = {int(i): ("constraints", r, lay.nc) for r, i in enumerate(held)}

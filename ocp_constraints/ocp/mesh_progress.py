@@ -13,9 +13,9 @@ for as long as ``max_refinements`` (10) let it.
 
 Refinement stops at the second such refinement, or at the first that made no progress at all (one
 that made some can be the mesh moving to a switch), or after a run of smaller steps, each no lower in its
-estimate than the one before, that together grew the points :data:`STALL_GROWTH` times (:func:`_plateau_message`). It never judges the first refinement (the first
-mesh is coarse, its estimate pre-asymptotic), nor refinements that grew the mesh by less than
-:data:`STALL_GROWTH`: the small steps of a refinement that splits a few intervals at switches (the
+estimate than the one before, that together grew the points :data:`STALL_GROWTH` times
+(:func:`_plateau_message`). It never judges the first refinement (the first mesh is coarse, its estimate
+pre-asymptotic), nor, one by one, refinements that grew the mesh by less than :data:`STALL_GROWTH`: the small steps of a refinement that splits a few intervals at switches (the
 walker, the minimum-time swing-up, 1.02-1.25x the points) may leave the estimate flat for a step
 and then meet the tolerance.
 """
@@ -48,6 +48,12 @@ def _stalls(history: list[dict], quantities) -> list[tuple[int, float, float, bo
     return out
 
 
+def _where(entry: dict, quantities) -> str:
+    """Which named quantity differs most from the companion, per gated quantity (``entry["worst"]``)."""
+    worst = entry.get("worst", {})
+    return ", ".join(f"{q}: {worst[q]}" for q in quantities if q in worst)
+
+
 def _rising_run(history: list[dict], quantities) -> tuple[int, int]:
     """The run of refinements at the end of ``history`` whose largest estimate each was no lower than the one
     before (resolved ones with estimates, the first refinement not judged): ``(base, length)``, ``base`` the
@@ -72,13 +78,11 @@ def _plateau_message(history: list[dict], tol: float, quantities) -> str | None:
     growth = cur["points"] / history[base]["points"]
     if growth < STALL_GROWTH:
         return None
-    worst = cur.get("worst", {})
-    where = ", ".join(f"{q}: {worst[q]}" for q in quantities if q in worst)
     return (f"refinement stalled: the last {length} refinements grew the mesh {growth:.1f}x ({history[base]['points']} -> "
             f"{cur['points']} points) and none lowered the estimate ({_largest(history[base], quantities):.1e} -> "
             f"{_largest(cur, quantities):.1e}); the solution and its companion do not converge together here (largest "
-            f"differences: {where}), so more points are unlikely to reach {tol:.0e}. The last solution is returned with "
-            f"its estimate: accept a larger tolerance, or look for a path constraint's junction or a kink inside an "
+            f"differences: {_where(cur, quantities)}), so more points are unlikely to reach {tol:.0e}. The last solution is "
+            f"returned with its estimate: accept a larger tolerance, or look for a path constraint's junction or a kink inside an "
             f"interval (the message's rough or non-smooth intervals)")
 
 
@@ -99,8 +103,7 @@ def stall_message(history: list[dict], tol: float, quantities=("states", "multip
         return _plateau_message(history, tol, quantities)
     _, growth, fall, _ = stalls[-1]
     prev, cur = history[-2], history[-1]
-    worst = cur.get("worst", {})
-    where = ", ".join(f"{q}: {worst[q]}" for q in quantities if q in worst)
+    where = _where(cur, quantities)
     best = min(_largest(e, quantities) for e in history[1:] if "estimate" in e)
     why = (f"the {len(stalls)} refinements that grew the points {STALL_GROWTH:g}x or more and cut the estimate by "
            f"less" if len(stalls) >= 2 else "it is no lower than one reached before")

@@ -201,9 +201,9 @@ class OptimalControlProblem:
         Ft = F - N * n
         # The model's weight as the contact load's scale: the rows' bounds (0) say nothing, and a cone in N^2 of a
         # heavy body left IPOPT creeping (the newcomer wheel at 200 kg: 124 iterations, 17 with this scale).
-        weight = sum(b.mass for b in self.model.bodies.values()) * float(np.linalg.norm(self.model.gravity))
-        self.subject_to(N, 0.0, np.inf, f"{channel} normal force", scale=max(weight, 1.0))
-        self.subject_to(ca.dot(Ft, Ft) - mu**2 * N**2, -np.inf, 0.0, f"{channel} friction cone", scale=max(weight, 1.0) ** 2)
+        load = max(1.0, sum(b.mass for b in self.model.bodies.values()) * float(np.linalg.norm(self.model.gravity)))
+        self.subject_to(N, 0.0, np.inf, f"{channel} normal force", scale=load)
+        self.subject_to(ca.dot(Ft, Ft) - mu**2 * N**2, -np.inf, 0.0, f"{channel} friction cone", scale=load**2)
 
     def initial(self, values: dict[str, float]) -> None:
         """Values at ``t = 0`` of named coordinates, rates, speeds or inputs."""

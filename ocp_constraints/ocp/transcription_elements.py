@@ -105,8 +105,8 @@ class ElementKinds:
         pr, e, lay, scheme = self.problem, self.eqs, self.layout, self.scheme
         x, a, lam, w, index = s.x, s.a, s.lam, s.w, s.index
         n_eq = e.nu + e.nc + lay.nh
-        lo = [0.0] * n_eq + [pc.lower / path_scale(pc) for pc in pr.path_constraints]
-        hi = [0.0] * n_eq + [pc.upper / path_scale(pc) for pc in pr.path_constraints]
+        path_lo, path_hi = scaled_path_bounds(pr.path_constraints)
+        lo, hi = [0.0] * n_eq + path_lo, [0.0] * n_eq + path_hi
 
         def build_point():
             frac, quad, rows, cost = self._point_rows(s, a)
@@ -268,6 +268,11 @@ def path_scale(constraint) -> float:
     user's units."""
     return max([1.0, float(getattr(constraint, "scale", 1.0))]
                + [abs(float(b)) for b in (constraint.lower, constraint.upper) if np.isfinite(b)])
+
+
+def scaled_path_bounds(constraints) -> tuple[list[float], list[float]]:
+    """The path rows' lower and upper bounds as the NLP holds them, each divided by its :func:`path_scale`."""
+    return ([c.lower / path_scale(c) for c in constraints], [c.upper / path_scale(c) for c in constraints])
 
 
 def _columns(rows: int, *blocks) -> np.ndarray:
