@@ -213,7 +213,7 @@ def test_a_friction_cone_on_a_heavy_wheel_costs_ipopt_no_more_than_on_a_light_on
     """A wheel rolling up a slope in a friction cone (examples/wheel_on_slope.py's problem, written here): at 2 kg
     and at 2,000 kg the same motion, the optimum scaled by the mass squared. The cone's rows, 0-bounded, are in
     N^2: unscaled, IPOPT took 56 iterations at 2 kg and 229 at 2,000 kg (Radau 3 N = 20); divided by the model's
-    weight (squared), 12 and 21."""
+    weight W and (mu W)^2, 13 and 21."""
     def wheel(m):
         model = oc.Model("wheel", gravity=(-9.81 * math.sin(0.35), 0.0, -9.81 * math.cos(0.35)))
         disk = model.add_body("disk", m, m * 0.04 * np.diag([0.25, 0.5, 0.25]), rotation="213")

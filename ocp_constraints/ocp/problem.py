@@ -199,11 +199,15 @@ class OptimalControlProblem:
         F = self.joint_force(channel)
         N = ca.dot(F, n)
         Ft = F - N * n
-        # The model's weight as the contact load's scale: the rows' bounds (0) say nothing, and a cone in N^2 of a
-        # heavy body left IPOPT creeping (the newcomer wheel at 200 kg: 124 iterations, 17 with this scale).
+        # The rows' typical magnitudes as their scales, since their bounds (0) say nothing: N ~ the model's weight W,
+        # and the cone row ~ (mu W)^2, the size of the friction it allows. Unscaled, a heavy body's cone in N^2 left
+        # IPOPT creeping (the newcomer wheel at 200 kg: 124 iterations); scaled by W^2, 1/mu^2 too much, the cone
+        # counted so little that fine meshes of the rolling disk's drive wandered to other optima (J 0.216, 0.517
+        # for 0.1765).
         load = max(1.0, sum(b.mass for b in self.model.bodies.values()) * float(np.linalg.norm(self.model.gravity)))
         self.subject_to(N, 0.0, np.inf, f"{channel} normal force", scale=load)
-        self.subject_to(ca.dot(Ft, Ft) - mu**2 * N**2, -np.inf, 0.0, f"{channel} friction cone", scale=load**2)
+        cone = (mu * load) ** 2 if mu > 0 else load**2
+        self.subject_to(ca.dot(Ft, Ft) - mu**2 * N**2, -np.inf, 0.0, f"{channel} friction cone", scale=cone)
 
     def initial(self, values: dict[str, float]) -> None:
         """Values at ``t = 0`` of named coordinates, rates, speeds or inputs."""
