@@ -35,7 +35,8 @@ def add_scene_parsers(sub) -> None:
     o.add_argument("--task", default=None, metavar="NAME", help="task of the scene (default: its first; see 'list')")
     o.add_argument("--scheme", default="radau", choices=["trapezoidal", "hermite-simpson", "radau"],
                    help="collocation scheme (default radau)")
-    o.add_argument("--degree", type=int, default=None, metavar="D", help="Radau degree, 1 to 9 (default 3; --scheme radau only)")
+    o.add_argument("--degree", type=int, default=None, metavar="D",
+                   help="Radau degree, 1 to 9 (default 3; with --tolerance, of the starting mesh: default 5; --scheme radau only)")
     o.add_argument("--intervals", type=int, default=None, metavar="N",
                    help="mesh intervals (default 50; with --tolerance, of the starting mesh: default 10)")
     o.add_argument("--out", default=None, metavar="DIR", help="folder for summary.json, trajectory.csv/.sto, loads.csv/.sto, plots and report.html (default: none written)")
@@ -49,7 +50,8 @@ def add_scene_parsers(sub) -> None:
     o.add_argument("--tolerance", type=float, default=None, metavar="TOL",
                    help="hp mesh refinement until the estimated error is at most TOL (states in SI units, "
                         "multipliers relative to the largest load), starting from --intervals N (default 10 "
-                        "here) of --degree D (default 3); summary.json gets the final mesh, the estimates and the history")
+                        "here) of --degree D (default 5 here, as problem.solve(tolerance=...)); summary.json gets the final "
+                        "mesh, the estimates and the history")
     o.add_argument("--ipopt", action="append", default=[], metavar="NAME=VALUE",
                    help="an IPOPT option for every solve, e.g. --ipopt max_iter=500 or --ipopt compl_inf_tol=1e-13 (repeatable; "
                         "recorded in summary.json; names at https://coin-or.github.io/Ipopt/OPTIONS.html)")
@@ -130,6 +132,7 @@ def _solve(args) -> int:
     from ..scenes.registry import build_task, parse_param_arguments
     from ..scenes.tasks import run_optimal_control
     from ..ocp.schemes import scheme_from_name
+    from ..ocp.mesh_refinement import START
 
     from ..errors import UsageError
 
@@ -145,8 +148,11 @@ def _solve(args) -> int:
     ipopt_options = ipopt_arguments(getattr(args, "ipopt", []))
     task, problem = build_task(args.scene, args.task, parse_param_arguments(args.param))
     problem.coordinates = getattr(args, "coordinates", "auto")
-    intervals = args.intervals if args.intervals is not None else (50 if tolerance is None else 10)
-    method = scheme_from_name(args.scheme, intervals, 3 if args.degree is None else args.degree)
+    # With --tolerance the starting mesh defaults to the library's (START), so the command and
+    # problem.solve(tolerance=...) refine the same meshes.
+    default = {"intervals": 50, "degree": 3} if tolerance is None else START
+    intervals = args.intervals if args.intervals is not None else default["intervals"]
+    method = scheme_from_name(args.scheme, intervals, default["degree"] if args.degree is None else args.degree)
     try:
         sol, summary = run_optimal_control(problem, args.scene, task, method, args.out, ipopt_options, plots=not args.no_plots,
                                            reintegrate=args.reintegrate, starts=getattr(args, "starts", 1),
