@@ -73,3 +73,21 @@ def test_refinement_at_a_speed_limit_keeps_its_estimate_above_the_closed_form_er
     est, true = sol.mesh_refinement["estimate"], _true_errors(sol)
     for q in ("states", "multipliers"):
         assert est[q] / 10 <= true[q] <= est[q], (q, true[q], est[q])
+
+
+def test_an_interval_holding_a_floored_kink_is_not_flagged_or_halved_for_it():
+    """A located junction of an input or a path constraint inside an interval: its inputs and multipliers kink by
+    construction and the estimate there carries the kink's floor, so judged_smoothness clears that interval's decay
+    (nonsmooth_splits leaves it alone); a state bound's junction (no floor) and a kink in another interval do not."""
+    from ocp_constraints.ocp.nonsmooth import judged_smoothness
+    from ocp_constraints.ocp.switch_detection import Switch
+
+    decay, tail = np.array([0.9, 0.9, 0.9, 0.1]), np.array([1.0, 1.0, 1.0, 1.0])
+    path_kink = Switch(0.30, 1, True, "hinge force", "junction", source="path")
+    state_kink = Switch(0.55, 2, True, "wall", "junction", source="state")
+    at_point = Switch(0.75, 3, False, "F", "junction", source="input")
+    judged, same_tail = judged_smoothness((decay, tail), [path_kink, state_kink, at_point])
+    assert judged.tolist() == [0.9, 0.0, 0.9, 0.1] and same_tail is tail
+    assert decay.tolist() == [0.9, 0.9, 0.9, 0.1]          # the caller's array is left as it was
+    bang = Switch(0.30, 1, True, "F", "bang-bang", source="input")
+    assert judged_smoothness((decay, tail), [bang])[0].tolist() == decay.tolist()

@@ -226,6 +226,12 @@ def estimate_error(solution, companion, safety: float = SAFETY, windows=(), swit
 KINK_C = 0.25
 
 
+def floored_kinks(switches) -> list:
+    """The located switches whose interval's estimate :func:`_kink_floor` floors: junctions of an input or a path
+    constraint inside an interval (a state's bound is reached tangentially: no kink)."""
+    return [w for w in switches if w.kind == "junction" and w.inside and w.source != "state"]
+
+
 def _kink_floor(solution, est, switches) -> None:
     """Where an input leaves or reaches its bound inside an interval, or a path constraint its bound (a junction,
     located by :mod:`.switch_detection`), the inputs and the multipliers kink: their estimate on that interval is at
@@ -241,7 +247,7 @@ def _kink_floor(solution, est, switches) -> None:
     multipliers' true error was 2.0x the estimate before its junction was located inside its interval,
     :func:`.switch_detection._junction`, and floored). A state's bound is reached tangentially: its inputs and
     multipliers need not kink."""
-    kinks = [w for w in switches if w.kind == "junction" and w.inside and w.source != "state"]
+    kinks = floored_kinks(switches)
     if not kinks:
         return
     tr = solution.transcription

@@ -65,7 +65,7 @@ from .error_estimate import DECAY_LIMIT, UNRESOLVED_OBJECTIVE, UNRESOLVED_STATE,
 from .mesh_companions import (MAX_DEGREE, _degrees, _ends, as_fine, companion_of, finer, finer_at_hand,
                               pilot_of, pilot_pieces, reused_degree, split_pieces, uniform_step)
 from .mesh_progress import gave_up, interrupted, stall_message
-from .nonsmooth import MIN_INTERVAL, flag_nonsmooth, nonsmooth_splits
+from .nonsmooth import MIN_INTERVAL, flag_nonsmooth, judged_smoothness, nonsmooth_splits
 from .schemes import Radau
 from .switch_detection import detect_switches, jump_windows, split_points, touched
 
@@ -342,7 +342,7 @@ def solve_to_tolerance(problem, tolerance, method=None, ipopt_options: dict | No
             continue
         # Switches inside intervals (switch_detection): there the estimate is no bound; split at them.
         met = all(est.totals[q] <= tol for q in GATED)
-        smoothness = legendre_decay(sol)    # Legendre decay and last term per interval: read three times below
+        smoothness = judged_smoothness(legendre_decay(sol), found)   # per interval, read three times below
         switches = split_points(found, scheme.mesh_fractions, MIN_INTERVAL, tol, ratio) or (
             nonsmooth_splits(sol, tol, smoothness, windows) if met and r < max_refinements else {})
         entry["switches"] = [f for k in sorted(switches) for f in switches[k]]
