@@ -87,8 +87,9 @@ class LagrangeSystem:
 def radau_solve(system: LagrangeSystem, N: int, t_final, lagrangian: ca.SX, initial: dict, final: dict,
                 input_bounds=None, path: list | None = None, guess_q: Callable | None = None,
                 free_time: tuple | None = None, time_weight: float = 0.0, degree: int = 3,
-                start: tuple | None = None) -> dict:
-    """Radau-``degree`` collocation on ``N`` uniform intervals of ``x = (q, qd)``, ``x' = (qd, qdd)``.
+                start: tuple | None = None, mesh: np.ndarray | None = None) -> dict:
+    """Radau-``degree`` collocation on ``N`` uniform intervals of ``x = (q, qd)``, ``x' = (qd, qdd)``, or on
+    ``mesh`` (``N + 1`` fractions of the horizon from 0 to 1: put the mesh points at known junctions).
 
     ``initial``/``final``: index -> value over ``x``; ``path``: ``(expression of q, qd, qdd, w, lower, upper)``;
     ``free_time``: ``(lower, upper)`` with ``t_final`` the guess; ``start``: ``(X, W)`` a full guess at
@@ -115,7 +116,9 @@ def radau_solve(system: LagrangeSystem, N: int, t_final, lagrangian: ca.SX, init
     if free_time:
         opti.subject_to(opti.bounded(free_time[0], T, free_time[1]))
         opti.set_initial(T, t_final)
-    h = T / N
+    mesh = np.linspace(0.0, 1.0, N + 1) if mesh is None else np.asarray(mesh, float)
+    if mesh.shape != (N + 1,) or mesh[0] != 0.0 or mesh[-1] != 1.0 or np.any(np.diff(mesh) <= 0):
+        raise ValueError(f"mesh: {N + 1} increasing fractions from 0 to 1 expected")
     X = opti.variable(2 * n, N * degree + 1)
     Wv = opti.variable(m, N * degree) if m else None
     J = time_weight * T if free_time else 0
@@ -124,6 +127,7 @@ def radau_solve(system: LagrangeSystem, N: int, t_final, lagrangian: ca.SX, init
         path_fn = ca.Function("path", [x, system.w], [ca.vertcat(*[p[0] for p in path])])
         plo, pup = np.array([p[1] for p in path]), np.array([p[2] for p in path])
     for k in range(N):
+        h = T * (mesh[k + 1] - mesh[k])
         cols = [X[:, k * degree + j] for j in range(degree + 1)]
         for j in range(1, degree + 1):
             xp = sum(C[r, j] * cols[r] for r in range(degree + 1))
@@ -152,7 +156,7 @@ def radau_solve(system: LagrangeSystem, N: int, t_final, lagrangian: ca.SX, init
     opti.solver("ipopt", {"print_time": False}, {"print_level": 0, "sb": "yes", "tol": 1e-10})
     sol = opti.solve()
     Tf = float(sol.value(T)) if free_time else float(t_final)
-    t = np.concatenate([[0.0], (np.arange(N)[:, None] + tau[None, :]).ravel()]) * Tf / N
+    t = np.concatenate([[0.0], (mesh[:-1, None] + np.diff(mesh)[:, None] * tau[None, :]).ravel()]) * Tf
     Xs = np.atleast_2d(sol.value(X))
     Ws = np.atleast_2d(sol.value(Wv)) if m else np.zeros((0, N * degree))
     return {"objective": float(sol.value(J)), "iterations": int(sol.stats()["iter_count"]), "t": t, "X": Xs,
