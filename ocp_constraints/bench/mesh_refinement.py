@@ -34,7 +34,7 @@ from ..ocp.error_estimate import compare, names, sample_grid, values_at
 from ..ocp.problem import OptimalControlProblem
 from ..ocp.schemes import Radau
 from ..scenes.registry import build_task
-from .references import swing_up_reference
+from .references import junction_mesh_solution, swing_up_reference
 
 TOLERANCES = (1e-4, 1e-6, 1e-8)
 FIXED_DEGREES = (3, 4, 5, 6, 7, 8, 9)
@@ -241,10 +241,10 @@ SWITCHING = {
     "minimum-time swing-up": (lambda coordinates: minimum_time_swing_up(coordinates),
                               lambda make: MinimumTimeReference(make().solve(Radau(160, degree=3))),
                               "one-switch bang-bang by shooting (DOP853 rtol 1e-13), hand hinge loads", (1e-3,)),
-    # N = 800: N = 200 was 1.9e-5 / 1.4e-4 (states / multipliers) off it, the 1e-4 row's own size (N = 400: 2.5e-6 / 6.7e-5).
+    # Mesh points at the friction cone's junctions: a uniform Radau 3 N = 800 was still 1e-4 off in the multipliers.
     "rolling_disk drive": (lambda coordinates: _task("rolling_disk", "drive", coordinates),
-                           lambda make: _FineReference(make().solve(Radau(800, degree=3))), "fine uniform radau3 N=800",
-                           (1e-3, 1e-4)),
+                           lambda make: _FineReference(junction_mesh_solution(make, make().solve(tolerance=1e-4))),
+                           "radau7 N=100 plus the located cone junctions", (1e-3, 1e-4)),
     # Smooth, maximal coordinates (the drive is no library joint). Its optima come in pairs (spin one way or
     # the other, J = 0.0566 / 0.0575): the reference starts from the refined solve, the same optimum.
     "whirling spin_up": (lambda coordinates: _task("whirling", "spin_up", coordinates),
