@@ -13,7 +13,6 @@ which bounds the reference's own error. A measurement, not a test.
 from __future__ import annotations
 
 import argparse
-import importlib.util
 import sys
 import time
 from pathlib import Path
@@ -30,15 +29,12 @@ NAMES = ("cart.x", "pole.psi", "cart.vbar_x", "pole.omega_z")      # (q, qd) of 
 FORCE = ("hinge@pole.F_x", "hinge@pole.F_y", "hinge@pole.F_z")
 
 
-def reference(sol, system, hinge_force, mesh: np.ndarray, degree: int = 7) -> dict:
+def reference(sol, mesh: np.ndarray, degree: int = 7) -> dict:
     """The minimal-coordinate problem by Radau ``degree`` on ``mesh``, started from ``sol``."""
-    p = npb.CARTPOLE
     tau = np.array(ca.collocation_points(degree, "radau"))
-    t = np.concatenate([[0.0], (mesh[:-1, None] + np.diff(mesh)[:, None] * tau[None, :]).ravel()]) * p["T"]
+    t = np.concatenate([[0.0], (mesh[:-1, None] + np.diff(mesh)[:, None] * tau[None, :]).ravel()]) * npb.CARTPOLE["T"]
     start = (np.vstack([sol.interpolate(n, t) for n in NAMES]), np.atleast_2d(sol.interpolate("push", t[1:])))
-    return npb.ref.radau_solve(system, len(mesh) - 1, p["T"], ca.sumsqr(system.w), {i: 0.0 for i in range(4)},
-                               {0: 0.0, 1: np.pi, 2: 0.0, 3: 0.0}, degree=degree, start=start, mesh=mesh,
-                               path=[(ca.sumsqr(hinge_force), -np.inf, p["f_max"] ** 2)])
+    return npb.cart_pole_reference(len(mesh) - 1, degree=degree, start=start, mesh=mesh)
 
 
 def main() -> None:
@@ -55,13 +51,11 @@ def main() -> None:
     junctions = sorted(w.fraction for w in detect_switches(sol) if w.kind == "junction")
     print("junctions located at", ", ".join(f"{j:.5f}" for j in junctions), "of the horizon")
     s = npb.cart_pole_system()
-    v = ca.jtimes(s.bodies[1].x, s.q, s.qd)
-    force = npb.CARTPOLE["m_pole"] * (ca.jtimes(v, s.q, s.qd) + ca.jtimes(v, s.qd, s.qdd) - ca.DM(s.gravity))
-    force_at = ca.Function("F", [s.q, s.qd, s.w], [force])
+    force_at = ca.Function("F", [s.q, s.qd, s.w], [npb.cart_pole_hinge_force(s)])
     refs = []
     for n in args.intervals:
         mesh = np.unique(np.r_[np.linspace(0.0, 1.0, n + 1), junctions])
-        r = reference(sol, s, force, mesh)
+        r = reference(sol, mesh)
         r["F"] = np.array([np.asarray(force_at(r["X"][:2, j], r["X"][2:, j], r["W"][:, j - 1])).ravel()
                            for j in range(1, r["X"].shape[1])])
         print(f"reference on {len(mesh) - 1} intervals: J = {r['objective']:.10f} ({r['iterations']} iterations)")

@@ -264,16 +264,18 @@ def cart_pole_system():
                                                                                      ca.vertcat(w[0], 0, 0)))
 
 
-def cart_pole_reference(N, guess=None, bounded=True):
+def cart_pole_hinge_force(s) -> ca.SX:
+    """The hinge's force on the pole, ``m (a_cm - g)``, in the minimal system ``s``'s ``q, qd, w``."""
+    v = ca.jtimes(s.bodies[1].x, s.q, s.qd)
+    return CARTPOLE["m_pole"] * (ca.jtimes(v, s.q, s.qd) + ca.jtimes(v, s.qd, s.qdd) - ca.DM(s.gravity))
+
+
+def cart_pole_reference(N, guess=None, bounded=True, **options):
+    """``options``: more of ``radau_solve``'s (``degree``, ``mesh``, ``start``)."""
     s, p = cart_pole_system(), CARTPOLE
-    path = None
-    if bounded:
-        v = ca.jtimes(s.bodies[1].x, s.q, s.qd)
-        a = ca.jtimes(v, s.q, s.qd) + ca.jtimes(v, s.qd, s.qdd)
-        F = p["m_pole"] * (a - ca.DM(s.gravity))
-        path = [(ca.sumsqr(F), -np.inf, p["f_max"] ** 2)]
+    path = [(ca.sumsqr(cart_pole_hinge_force(s)), -np.inf, p["f_max"] ** 2)] if bounded else None
     return ref.radau_solve(s, N, p["T"], ca.sumsqr(s.w), {i: 0.0 for i in range(4)},
-                           {0: 0.0, 1: math.pi, 2: 0.0, 3: 0.0}, path=path, guess_q=guess)
+                           {0: 0.0, 1: math.pi, 2: 0.0, 3: 0.0}, path=path, guess_q=guess, **options)
 
 
 def cart_pole_loads(sol):

@@ -21,6 +21,8 @@ import math
 import numpy as np
 from scipy.integrate import solve_bvp, solve_ivp
 
+from ..ocp.schemes import Radau
+from ..ocp.switch_detection import detect_switches
 from ..scenes.registry import build_scene, load_scene_module
 
 RTOL = 1e-13
@@ -221,9 +223,6 @@ def junction_mesh_solution(make, locate, intervals: int = 100, degree: int = 7):
     complementarity held to 1e-13. At a junction (a friction cone becoming active) a uniform mesh's multipliers converge
     only like h (the rolling-disk drive: Radau 3 on 400 and 800 intervals 6.7e-5 apart); with the junctions as mesh
     points Radau 7 on 50 and 100 intervals agree to 1.4e-5 in the multipliers and 5e-7 in the states."""
-    from ..ocp.schemes import Radau
-    from ..ocp.switch_detection import detect_switches
-
     switches = sorted({round(w.fraction, 12) for w in detect_switches(locate) if w.inside})
     mesh = np.unique(np.r_[np.linspace(0.0, 1.0, intervals + 1), switches])
     return make().solve(Radau(mesh=tuple(mesh), degrees=(degree,) * (len(mesh) - 1)), {"ipopt.compl_inf_tol": 1e-13},

@@ -47,7 +47,7 @@ class ReducedProblem:
         self.state_bounds = {n: b for n, b in problem.bounds.items() if n in names}
         for n, (lo, hi) in self.state_bounds.items():
             self.path_constraints.append(SimpleNamespace(label=f"bound on {n}", expression=self.translate(problem.quantity(n)),
-                                                         lower=lo, upper=hi))
+                                                         lower=lo, upper=hi, scale=1.0))
 
     def __getattr__(self, name):
         return getattr(self.original, name)

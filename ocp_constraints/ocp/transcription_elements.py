@@ -259,14 +259,14 @@ class ElementKinds:
 
 def path_scale(constraint) -> float:
     """The divisor of a path constraint's NLP row and bounds: its largest finite bound's magnitude or its ``scale``
-    (a friction cone's: the model's weight, squared), at least 1.
+    (a friction cone's rows: the model's weight W and (mu W)^2), at least 1.
 
     A load bound in the user's units (``|F|^2 <= (515 N)^2``) puts rows of ~1e5 beside rows of ~1 in one
     NLP; IPOPT then crept at a small barrier parameter (a crane in minimum time under a rope-tension bound:
     230 iterations, 31 with the row divided by its bound; ``tests/test_ocp_user_problems.py``). Only the
     NLP's rows are scaled: values, violations and switches are evaluated from the expressions, in the
     user's units."""
-    return max([1.0, float(getattr(constraint, "scale", 1.0))]
+    return max([1.0, float(constraint.scale)]
                + [abs(float(b)) for b in (constraint.lower, constraint.upper) if np.isfinite(b)])
 
 
