@@ -147,7 +147,7 @@ def test_a_states_error_made_on_one_interval_and_carried_along_is_refined_where_
                   fractions, owner, 10, labels)
     assert est.totals["states"] == pytest.approx(1e-3)
     assert np.allclose(est.per_interval["states"], [0, 0, 0, 1e-3, 1e-3, 1e-3, 1e-3, 1e-3, 1e-3, 1e-3])
-    assert np.allclose(est.local_states, [0, 0, 0, 1e-3, 0, 0, 0, 0, 0, 0])
+    assert np.allclose(est.local["states"], [0, 0, 0, 1e-3, 0, 0, 0, 0, 0, 0])
     assert np.allclose(est.refinement_ratio(1e-4, ("states",)), [0, 0, 0, 10, 0, 0, 0, 0, 0, 0])
     # Met: the per-interval estimate itself (every ratio at most 1).
     assert np.allclose(est.refinement_ratio(2e-3, ("states",)), est.per_interval["states"] / 2e-3)
@@ -155,6 +155,38 @@ def test_a_states_error_made_on_one_interval_and_carried_along_is_refined_where_
     est = compare({"states": wave[None, :], **zero}, {"states": np.zeros((1, fractions.size)), **zero},
                   fractions, owner, 10, labels)
     assert np.allclose(est.refinement_ratio(1e-4, ("states",)), 10.0)
+
+
+def test_an_error_carried_over_the_whole_horizon_is_refined_where_it_is_made_not_where_it_shows():
+    """made_here and refinement_ratio on a difference written by hand, as an optimum shows it: a smooth perturbation
+    of the whole solution (1e-3 (1 + sin(pi t)), what resolving one spot better moves everywhere: the two-point
+    boundary-value problem's response) plus a wave of 1e-3 inside interval 12 of 20 alone (a poorly resolved arc),
+    sampled as the estimate samples degree 8 (17 samples per interval). On the states and, relative to the largest
+    load, on the multipliers, the difference is above the tolerance 2e-4 on every interval, but only interval 12
+    makes more than a small part of it: there the ratio is the whole estimate's (14.7), elsewhere below 1 (not
+    refined). The states' change across an interval, the share before, gave 13 of the other 19 intervals ratios
+    above 1 (up to 2.2), and the multipliers had no share of their own: every interval refined."""
+    from ocp_constraints.ocp.error_estimate import compare, made_here
+
+    n = 20
+    mesh = np.linspace(0.0, 1.0, n + 1)
+    fractions = np.concatenate([np.linspace(a, b, 17) for a, b in zip(mesh[:-1], mesh[1:])])
+    owner = np.repeat(np.arange(n), 17)
+    made = np.where(owner == 12, 1e-3 * np.sin(2 * np.pi * (fractions - mesh[owner]) * n), 0.0)
+    drift = 1e-3 * (1.0 + np.sin(np.pi * fractions)) + made
+    local = made_here(drift[None, :], fractions, owner, n)
+    assert local.argmax() == 12 and np.all(np.delete(local, 12) < 0.03 * local[12])
+    labels = {"states": ["x"], "multipliers": ["c.lambda", "d.lambda"], "inputs": ["u"]}
+    load, zero, one = 100.0, np.zeros((1, fractions.size)), np.ones(fractions.size)
+    # The multipliers' difference in N, relative to the largest load (100 N); a second constraint's load is exact.
+    ours = {"states": drift[None, :], "multipliers": np.vstack([load * (1.0 + drift), one]), "inputs": zero}
+    ref = {"states": zero, "multipliers": np.vstack([load * one, one]), "inputs": zero}
+    est = compare(ours, ref, fractions, owner, n, labels)
+    for q in ("states", "multipliers"):
+        assert np.all(est.per_interval[q] > 2e-4)
+        ratio = est.refinement_ratio(2e-4, (q,))
+        assert ratio[12] == pytest.approx(est.totals[q] / 2e-4, rel=1e-6) and ratio[12] > 14.0
+        assert np.all(np.delete(ratio, 12) < 1.0)
 
 
 def test_unresolved_step_halves_the_companion_and_rough_needs_a_non_smooth_interval():

@@ -51,9 +51,9 @@ class ErrorEstimate:
     # relative difference and the states' largest difference over their range; None until measured.
     objective_change: float | None = None
     state_change: float | None = None
-    # Per interval, how much the states' difference changes across it (:func:`compare`): the error made there,
-    # where ``per_interval["states"]`` also holds the error carried in from before (:meth:`refinement_ratio`).
-    local_states: np.ndarray | None = None
+    # Per quantity and interval, the part of the difference made there (:func:`made_here`), where
+    # ``per_interval`` also holds the error carried in from elsewhere (:meth:`refinement_ratio`).
+    local: dict[str, np.ndarray] = field(default_factory=dict)
 
     def as_dict(self) -> dict:
         out = {"estimate": dict(self.totals), "worst": dict(self.worst), "load_scale": self.load_scale,
@@ -66,20 +66,22 @@ class ErrorEstimate:
     def refinement_ratio(self, tolerance: float, gated) -> np.ndarray:
         """Per interval, the estimate over ``tolerance``, the largest over the ``gated`` quantities: where to refine.
 
-        The states' error is carried along by the dynamics: an error made at one spot (a junction where a
-        path constraint becomes active, a kink) shows in the states' difference on every later interval,
-        and refining every interval where it shows doubles the whole mesh for an error made at two points
-        (the cart-pole with a bounded hinge force at 1e-3: on 167 intervals the states' estimate was above
-        the tolerance on three quarters of them, 3.6x at the median, while the change of the difference
-        across an interval was 0.23x the tolerance at the median and 3.6x at the junctions). So while the
-        states' estimate is above the tolerance, their per-interval share is where the difference *changes*
-        (``local_states``), scaled so that the largest is the whole estimate: the interval that makes most of
-        the error gets the ratio of the whole, the others in proportion to what they make. Met or not is
-        still decided on the whole estimate (``totals``), which this leaves as it is."""
+        An optimal control's error is carried along: an error made at one spot (a junction where a path
+        constraint becomes active, a kink) shows in the states' difference on every later interval, and, as
+        the optimum is a two-point boundary-value problem, in the states and multipliers everywhere (the
+        four-bar's pin-force arcs at 1e-3: on 45 intervals the multipliers' difference was above the
+        tolerance on 12, the states' change across an interval above 1/44 of the largest on 44, while the part
+        made on an interval, :func:`made_here`, singled out the 4-6 that hold the arcs). Refining every
+        interval where the error shows refines the whole mesh for an error made at two points. So while a
+        quantity's estimate is above the tolerance, its per-interval share is the part made there
+        (``local``), scaled so that the largest is the whole estimate: the interval that makes most of the
+        error gets the ratio of the whole, the others in proportion to what they make. Met or not is still
+        decided on the whole estimate (``totals``), which this leaves as it is."""
         per = dict(self.per_interval)
-        total, local = self.totals.get("states", 0.0), self.local_states
-        if "states" in gated and local is not None and total > tolerance and local.max() > 0.0:
-            per["states"] = local * (total / local.max())
+        for q in gated:
+            total, local = self.totals.get(q, 0.0), self.local.get(q)
+            if local is not None and total > tolerance and local.max() > 0.0:
+                per[q] = local * (total / local.max())
         return np.max([per[q] for q in gated], axis=0) / tolerance
 
     @property
@@ -146,13 +148,57 @@ def compare(values: dict[str, np.ndarray], reference: dict[str, np.ndarray], fra
         totals[q] = float(pointwise.max()) if pointwise.size else 0.0
         if diff.size:
             worst[q] = labels[q][int(diff.max(axis=1).argmax())]
-    # The states' difference less its value at the start of each interval: what the interval adds to it.
-    drift = values["states"] - reference["states"]
-    starts = np.searchsorted(owner, np.arange(intervals))
+    local = {q: made_here((values[q] - reference[q]) / scales[q], fractions, owner, intervals,
+                          None if q == "states" else inner, jumps=q != "states") for q in ("states", "multipliers")}
+    return ErrorEstimate(totals, per_interval, scales["multipliers"], scales["inputs"], worst, local=local)
+
+
+def made_here(drift: np.ndarray, fractions: np.ndarray, owner: np.ndarray, intervals: int, valid=None,
+              jumps: bool = False) -> np.ndarray:
+    """Per interval, the part of a difference ``drift`` (components x samples; ``valid``: the samples to use)
+    that the interval makes: its largest departure, over the interval, from its value at the interval's start
+    carried on at the rate of its neighbours' background. The background's rate is the rate across a
+    neighbouring interval (its last sample less its first, over their distance), of the two neighbours the
+    smaller where both change the same way, else none: an error carried in from elsewhere, smooth over a few
+    intervals, changes at a rate between its neighbours', and taking the smaller leaves the interval the most
+    of what it changes. What an interval adds to the difference, its change across, is counted as made there
+    only beyond that rate: an error made at a junction and carried along by the dynamics (a ramp across
+    the junction's interval, constant after it: all on that interval), a perturbation of the whole optimum
+    (a slope varying smoothly over every interval: little on each), the truncation error of a smooth
+    interval (a wave inside it: all of it)."""
+    valid = np.ones(fractions.size, bool) if valid is None else np.asarray(valid, bool)
+    k = np.arange(intervals)
+    starts = np.searchsorted(owner, k, "left")
+    own_samples = valid.copy()
+    if jumps:       # an interval's first sample, the mesh point, holds the interval before's value
+        own_samples[starts[starts < owner.size]] = False
     local = np.zeros(intervals)
-    if drift.size:
-        np.maximum.at(local, owner, np.abs(drift - drift[:, starts[owner]]).max(axis=0))
-    return ErrorEstimate(totals, per_interval, scales["multipliers"], scales["inputs"], worst, local_states=local)
+    use = np.flatnonzero(own_samples)
+    if not drift.size or not use.size:
+        return local
+    lo, hi = np.searchsorted(owner[use], k, "left"), np.searchsorted(owner[use], k, "right")
+    has = hi > lo
+    first, last = use[np.minimum(lo, use.size - 1)], use[np.maximum(hi - 1, 0)]
+    span = fractions[last] - fractions[first]
+    rate = np.where(has & (span > 0), (drift[:, last] - drift[:, first]) / np.where(span > 0, span, 1.0), 0.0)
+    before = np.where((k > 0)[None, :], np.roll(rate, 1, axis=1), np.nan)
+    after = np.where((k < intervals - 1)[None, :], np.roll(rate, -1, axis=1), np.nan)
+    smaller = np.where(np.abs(before) <= np.abs(after), before, after)
+    both = np.where(np.sign(before) == np.sign(after), smaller, 0.0)
+    background = np.where(np.isnan(before), np.nan_to_num(after), np.where(np.isnan(after), before, both))
+    o = owner[use]
+    own = drift[:, use] - drift[:, first[o]] - background[:, o] * (fractions[use] - fractions[first[o]])
+    np.maximum.at(local, o, np.abs(own).max(axis=0))
+    if jumps and intervals > 1:
+        # The jump at each inner mesh point: its value (the interval before's) less the interval after's own,
+        # extrapolated linearly from its first two samples; made by one of the two, so counted on both.
+        s0 = starts[1:]
+        s1, s2 = np.minimum(s0 + 1, owner.size - 1), np.minimum(s0 + 2, owner.size - 1)
+        ok = valid[s0] & valid[s1] & valid[s2] & (owner[s2] == k[1:])
+        jump = np.where(ok, np.abs(drift[:, s0] - 2.0 * drift[:, s1] + drift[:, s2]).max(axis=0), 0.0)
+        local[:-1] = np.maximum(local[:-1], jump)
+        local[1:] = np.maximum(local[1:], jump)
+    return local
 
 
 def resolution(solution, companion, values: np.ndarray, reference: np.ndarray) -> tuple[float, float]:
@@ -210,10 +256,10 @@ def estimate_error(solution, companion, safety: float = SAFETY, windows=(), swit
     est.objective_change, est.state_change = resolution(solution, companion, ours["states"], theirs["states"])
     est.totals = {q: safety * v for q, v in est.totals.items()}
     est.per_interval = {q: safety * v for q, v in est.per_interval.items()}
-    est.local_states = safety * est.local_states
+    est.local = {q: safety * v for q, v in est.local.items()}
     for w in switches:
         est.per_interval["states"][w.interval] = max(est.per_interval["states"][w.interval], w.effect)
-        est.local_states[w.interval] = max(est.local_states[w.interval], w.effect)
+        est.local["states"][w.interval] = max(est.local["states"][w.interval], w.effect)
         est.totals["states"] = max(est.totals["states"], w.effect)
     _kink_floor(solution, est, switches)
     if solution.transcription.layout.free_time:
@@ -265,115 +311,6 @@ def _kink_floor(solution, est, switches) -> None:
             slope = [(V[:, b] - V[:, a]) / (t[b] - t[a]) for a, b in (before, after)]
             model = reach * float(np.abs(slope[1] - slope[0]).max())
             est.per_interval[q][k] = max(est.per_interval[q][k], model)
+            if q in est.local:      # the kink is made here
+                est.local[q][k] = max(est.local[q][k], model)
             est.totals[q] = max(est.totals[q], model)
-
-
-# An interval whose inputs' or multipliers' last Legendre coefficient, over their largest after the
-# mean, is above this fraction of what a unit step between two of its points gives at the least
-# (:func:`_step_ratio`), is not smooth. A jump's coefficients do not fall (a step: 0.52 of the
-# largest at degree 3, 0.20 at degree 9); a resolved smooth arc's fall geometrically (swing-up at
-# 1e-4: at most 0.015 of the step's). Half the step's: no jump passes, a mildly curved degree-3
-# interval does (the rolling-disk drive at 1e-3: 0.23 of the step's).
-DECAY_LIMIT = 0.5
-# Components whose coefficients after the mean are all below this (relative to the quantity's
-# largest value) are constant on the interval: their ratios are round-off, not a decay.
-NEGLIGIBLE = 1e-6
-
-
-def _step_ratio(to_coefficients: np.ndarray) -> float:
-    """The smallest ``|a_last| / max_{j >= 1} |a_j|`` of a unit step between any two of the points
-    (``to_coefficients``: point values to Legendre coefficients): what a jump gives at the least,
-    0.52 at degree 3 down to 0.20 at degree 9 (a smooth ``exp(x)`` on the interval: 0.39 and 1e-4)."""
-    n = to_coefficients.shape[1]
-    steps = (np.arange(n)[None, :] >= np.arange(1, n)[:, None]).astype(float)     # step after point s
-    a = np.abs(steps @ to_coefficients.T)
-    return float((a[:, -1] / a[:, 1:].max(axis=1)).min())
-
-
-def legendre_decay(solution) -> tuple[np.ndarray, np.ndarray]:
-    """Per interval, the largest over the inputs and over the multipliers of ``max |a_last| / max_{j >= 1} |a_j|``
-    (maxima over the quantity's components, in its relative scale) divided by that of a unit step
-    (:func:`_step_ratio`), ``a_j`` the Legendre coefficients of the solution's polynomial through the
-    interval's collocation points; and that ``max |a_last|``
-    (the size of the polynomial's last term, relative to the quantity's largest value). Needs no
-    NLP: the coefficients are a linear map of the point values.
-
-    Where the solution is smooth and resolved, the coefficients fall geometrically and this is small;
-    where the inputs or multipliers jump inside the interval (a switch), it stays near one, at any
-    degree: there a comparison with a higher degree (the companion of :func:`estimate_error`), which
-    resolves the jump no better, is not an upper bound of the error (Liu, Hager and Rao 2015 use the
-    same decay to tell smooth intervals from non-smooth ones). States are left out: at a switch of a
-    bang-bang input they are continuous with their first derivative, and their coefficients fall."""
-    from numpy.polynomial import legendre
-
-    tr = solution.transcription
-    labels = names(solution)
-    out, tail = np.zeros(tr.scheme.intervals), np.zeros(tr.scheme.intervals)
-    mesh = tr.scheme.mesh_fractions
-    # Intervals of one local scheme share the map from point values to coefficients (their points in
-    # local time are the same): one matrix per degree, all their intervals at once.
-    local_of = np.array([tr.local[k].label for k in range(tr.scheme.intervals)])
-    for q in ("inputs", "multipliers"):
-        values = np.array([solution.sample(n) for n in labels[q]]).reshape(len(labels[q]), -1)
-        scale = float(np.abs(values[:, 1:]).max()) if values.shape[1] > 1 and values.size else 0.0
-        if scale == 0.0:
-            continue
-        for label in np.unique(local_of):
-            ks = np.flatnonzero(local_of == label)
-            p = len(tr.interval_points(ks[0]))
-            if p < 4:           # fewer than 3 collocation points: no decay to read
-                continue
-            # Radau's inputs and multipliers at an interval's first point belong to the interval
-            # before (its last collocation point): the fit uses the interval's own points.
-            idx = tr.offsets[ks][:, None] + np.arange(1, p)[None, :]
-            x = 2.0 * (tr.fractions[idx[0]] - mesh[ks[0]]) / (mesh[ks[0] + 1] - mesh[ks[0]]) - 1.0
-            to_coefficients = np.linalg.inv(legendre.legvander(x, p - 2))
-            a = np.abs(np.einsum("jp,ckp->kjc", to_coefficients, values[:, idx])) / scale   # interval x j x component
-            # Tail over the largest variation of any component (one scale for the quantity): a small
-            # component's round-off is not read as a slow decay.
-            body = a[:, 1:, :].max(axis=(1, 2))
-            last = a[:, -1, :].max(axis=1)
-            ratio = np.where(body > NEGLIGIBLE, last / np.maximum(body, NEGLIGIBLE), 0.0) / _step_ratio(to_coefficients)
-            worse = ratio > out[ks]
-            out[ks[worse]], tail[ks[worse]] = ratio[worse], last[worse]
-    return out, tail
-
-
-def predicted_error(solution) -> tuple[np.ndarray, np.ndarray]:
-    """Per interval, the error of the solution's polynomials that their own Legendre coefficients predict,
-    before any companion is solved: the next coefficient, extrapolated geometrically from the last two,
-    ``|a_d| min(1, |a_d| / |a_{d-1}|)`` (maxima over the components; states absolute through the interval's
-    points, multipliers relative to their largest value through its collocation points), the larger of the
-    two; and whether both fall there (``|a_d| < |a_{d-1}|``). The geometric fall is what hp theory assumes
-    of a smooth, resolved solution (Patterson and Rao 2014, Liu, Hager and Rao 2015); where the
-    coefficients do not fall (a coarse mesh that does not resolve the solution: the suite's acrobot and
-    cart double pendulum on 10 intervals of degree 3, rates up to 1.6-1.9), the prediction means nothing.
-    Used only to size the pilot
-    (:func:`.mesh_companions.pilot_pieces`), never as the estimate: on the first mesh (Radau 3, 10 intervals)
-    the pilot's estimate per interval is 0.08-0.38x the last coefficient alone on the swing-up, 1.1-460x on the
-    suite's acrobot, cart double pendulum and four-bar (``python scripts/mesh_refinement_costs.py`` reads the
-    same ratio on other meshes): a prediction, good to a factor that the pieces it asks for, about its
-    seventh root, mostly absorb."""
-    from numpy.polynomial import legendre
-
-    tr = solution.transcription
-    labels = names(solution)
-    mesh = tr.scheme.mesh_fractions
-    out, falls = np.zeros(tr.scheme.intervals), np.ones(tr.scheme.intervals, bool)
-    for q in ("states", "multipliers"):
-        values = np.array([solution.sample(n) for n in labels[q]]).reshape(len(labels[q]), -1)
-        scale = 1.0 if q == "states" else (float(np.abs(values[:, 1:]).max()) if values.size else 0.0)
-        if not values.size or scale == 0.0:
-            continue
-        first = 0 if q == "states" else 1       # multipliers: the interval's own (collocation) points
-        for k in range(tr.scheme.intervals):
-            idx = np.asarray(tr.interval_points(k))[first:]
-            if len(idx) < 3:
-                continue
-            x = 2.0 * (tr.fractions[idx] - mesh[k]) / (mesh[k + 1] - mesh[k]) - 1.0
-            a = np.abs(np.linalg.solve(legendre.legvander(x, len(idx) - 1), values[:, idx].T)).max(axis=1) / scale
-            rate = a[-1] / a[-2] if a[-2] > 0 else np.inf
-            falls[k] &= rate < 1.0
-            out[k] = max(out[k], a[-1] * min(rate, 1.0))
-    return out, falls
-

@@ -8,7 +8,7 @@ import math
 
 import numpy as np
 
-from .error_estimate import predicted_error
+from .legendre_decay import predicted_error
 from .schemes import Radau
 
 MAX_DEGREE = 7          # the companion then reaches Radau's highest degree, 9
@@ -126,7 +126,7 @@ def split_pieces(ratio: float, degree: int) -> int:
 
 def pilot_pieces(sol, tol: float) -> np.ndarray:
     """How finely the pilot cuts each interval of the first mesh: in two, or, where the first solution's
-    own Legendre coefficients predict an error (:func:`.error_estimate.predicted_error`) that a
+    own Legendre coefficients predict an error (:func:`.legendre_decay.predicted_error`) that a
     halving at :data:`MAX_DEGREE` would not bring below ``tol`` (:func:`split_pieces` asks for more), in as
     many pieces as that asks for. Then the next mesh, from the pilot's estimate, asks for no more than the
     pilot has (:func:`.mesh_companions.as_fine`) and the pilot is the next solution: at a tight tolerance

@@ -22,13 +22,13 @@
    time that is a variable); the states' estimate is at least the switch's own effect;
 4. stop when the estimate of the states (absolute, SI units) and of the multipliers (relative
    to the largest load) is at most ``tolerance`` and no switch is left inside an interval; else
-   refine every interval whose share of the estimate exceeds it (the states' share: where their difference
-   from the companion changes, not where an error made earlier is carried along,
+   refine every interval whose share of the estimate exceeds it (the states' and multipliers' share: the part
+   of their difference from the companion made there, not an error made elsewhere and carried along,
    :meth:`.error_estimate.ErrorEstimate.refinement_ratio`), an hp rule after Patterson, Hager and Rao (2014)
    (:func:`refine`): a smooth interval gets the degree that a fall of the error of about 4x per
    degree predicts, up to :data:`MAX_DEGREE`, else it is split at that degree into as many pieces as
    the rest of the error needs; an interval refined last time whose estimate fell less than tenfold
-   *and* whose inputs or multipliers are not smooth (:func:`.error_estimate.legendre_decay`) is
+   *and* whose inputs or multipliers are not smooth (:func:`.legendre_decay.legendre_decay`) is
    *rough* (a kink no bound located) and is halved at :data:`MIN_DEGREE`, down to :data:`ROUGH_MIN`
    of the horizon (a smooth interval whose estimate fell too slowly is still short of resolution:
    dropping its degree to 3 made the four-bar and the acrobot hundreds of intervals);
@@ -61,7 +61,8 @@ import time
 import numpy as np
 
 from ..errors import ModelError, OCPSolveError
-from .error_estimate import DECAY_LIMIT, UNRESOLVED_OBJECTIVE, UNRESOLVED_STATE, estimate_error, legendre_decay
+from .error_estimate import UNRESOLVED_OBJECTIVE, UNRESOLVED_STATE, estimate_error
+from .legendre_decay import DECAY_LIMIT, legendre_decay
 from .mesh_companions import (MAX_DEGREE, _degrees, _ends, as_fine, companion_of, finer, finer_at_hand,
                               pilot_of, pilot_pieces, reused_degree, split_pieces, uniform_step)
 from .mesh_progress import gave_up, interrupted, stall_message
@@ -69,8 +70,7 @@ from .nonsmooth import MIN_INTERVAL, flag_nonsmooth, judged_smoothness, nonsmoot
 from .schemes import Radau
 from .switch_detection import detect_switches, jump_windows, split_points, touched
 
-MIN_DEGREE = 3
-MAX_REFINEMENTS = 10
+MIN_DEGREE, MAX_REFINEMENTS = 3, 10
 # The pilot replaces the next mesh (one solve fewer) only if it has at most this many times its points (its companion
 # and the solution returned are then that much larger; where solve time grows like the points, the saved solve pays for
 # ~1.8x): 1.5 keeps a margin, and a non-smooth solution (short intervals at a switch) is not traded for a finer mesh.
@@ -138,7 +138,7 @@ def refine(scheme: Radau, ratio: np.ndarray, parents: dict | None = None,
     quantities); ``parents`` maps an interval's ends to the ratio of the interval it was made from
     one refinement back. An interval refined last time whose ratio fell less than tenfold, and
     whose inputs or multipliers are not smooth (``nonsmooth[k]``, from
-    :func:`.error_estimate.legendre_decay`; None: not checked) is *rough* (a switch or a kink inside:
+    :func:`.legendre_decay.legendre_decay`; None: not checked) is *rough* (a switch or a kink inside:
     neither a higher degree nor a split at a high degree helps much): it is split in two at :data:`MIN_DEGREE`. A smooth one gets the degree that
     the error's fall of about 4x per degree predicts, ``d + ceil(log(ratio) / log 4)``, if that is at
     most :data:`MAX_DEGREE`; else it is split at :data:`MAX_DEGREE` into the number of pieces that

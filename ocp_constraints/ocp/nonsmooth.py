@@ -7,14 +7,15 @@ from __future__ import annotations
 
 import numpy as np
 
-from .error_estimate import DECAY_LIMIT, floored_kinks
+from .error_estimate import floored_kinks
+from .legendre_decay import DECAY_LIMIT
 
 MIN_INTERVAL = 1e-6     # fraction of the horizon below which an interval is not split further
 
 
 def _untrusted(sol, tol: float, smoothness: tuple, windows) -> tuple[np.ndarray, np.ndarray]:
     """The mesh (fractions), and per interval whether its inputs or multipliers are not smooth (Legendre decay above
-    :data:`.error_estimate.DECAY_LIMIT`), its last term above ``tol``, and its middle outside every jump window."""
+    :data:`.legendre_decay.DECAY_LIMIT`), its last term above ``tol``, and its middle outside every jump window."""
     decay, tail = smoothness
     mesh = sol.transcription.scheme.mesh_fractions
     mid = (mesh[:-1] + mesh[1:]) / 2
@@ -27,7 +28,7 @@ def _untrusted(sol, tol: float, smoothness: tuple, windows) -> tuple[np.ndarray,
 def flag_nonsmooth(sol, tol: float, record: dict, smoothness: tuple, windows=()) -> None:
     """Withdraw "met" where the estimate cannot be trusted (and say so where it is not met either):
     intervals whose inputs or multipliers are not smooth (their Legendre coefficients fall no faster
-    than half a step's, :func:`.error_estimate.legendre_decay`) and whose polynomial's last term is
+    than half a step's, :func:`.legendre_decay.legendre_decay`) and whose polynomial's last term is
     larger than the tolerance. There a jump (a switch of a bang-bang input) sits inside the
     interval, the companion resolves it no better than the solution, and their difference is no
     upper bound (minimum-time swing-up: true state error 2.5x the estimate; the bench). The
@@ -71,7 +72,7 @@ def nonsmooth_splits(sol, tol: float, smoothness: tuple, windows=()) -> dict[int
 
 
 def judged_smoothness(smoothness: tuple, switches) -> tuple[np.ndarray, np.ndarray]:
-    """``smoothness`` (:func:`.error_estimate.legendre_decay`) with the decay of every interval that holds a located,
+    """``smoothness`` (:func:`.legendre_decay.legendre_decay`) with the decay of every interval that holds a located,
     floored kink set to 0: there the inputs and multipliers kink by construction, and their estimate already carries
     the kink's own size (:func:`.error_estimate._kink_floor`), so the interval is neither flagged nor halved for it.
     Halving it only moved the kink into a shorter interval that was still "not smooth": the newcomer cart-pole at 1e-3,
