@@ -276,9 +276,10 @@ def test_ctrl_c_while_a_mesh_is_built_keeps_the_last_complete_solution(monkeypat
     """Ctrl-C outside IPOPT (a mesh's NLP being built, or its functions compiled: seconds on a heavy model) ends
     the refinement with an OCPSolveError that keeps the last solution judged, its record saying so."""
     import ocp_constraints.ocp.mesh_refinement as mr
+    import ocp_constraints.ocp.mesh_solves as ms
     from ocp_constraints.errors import OCPSolveError
 
-    builds, real = [], mr._build
+    builds, real = [], ms.build_mesh
 
     def build(*args, **kwargs):
         builds.append(args[1])
@@ -286,7 +287,7 @@ def test_ctrl_c_while_a_mesh_is_built_keeps_the_last_complete_solution(monkeypat
             raise KeyboardInterrupt
         return real(*args, **kwargs)
 
-    monkeypatch.setattr(mr, "_build", build)
+    monkeypatch.setattr(ms, "build_mesh", build)
     problem = build_task("pendulum", "swing_up")[1]
     with pytest.raises(OCPSolveError, match="interrupted during refinement 1, outside IPOPT") as caught:
         mr.solve_to_tolerance(problem, 1e-9, Radau(4, degree=3))

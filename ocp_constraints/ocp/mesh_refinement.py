@@ -56,7 +56,6 @@ from __future__ import annotations
 
 import math
 import numbers
-import time
 
 import numpy as np
 
@@ -66,6 +65,7 @@ from .legendre_decay import DECAY_LIMIT, legendre_decay
 from .mesh_companions import (MAX_DEGREE, _degrees, _ends, as_fine, companion_of, finer, finer_at_hand,
                               pilot_of, pilot_pieces, reused_degree, split_pieces, uniform_step)
 from .mesh_progress import gave_up, interrupted, stall_message
+from .mesh_solves import build_mesh as _build, iterations as _iterations, timed_solve as _timed_solve
 from .nonsmooth import MIN_INTERVAL, flag_nonsmooth, judged_smoothness, nonsmooth_splits
 from .schemes import Radau
 from .switch_detection import detect_switches, jump_windows, split_points, touched
@@ -94,7 +94,7 @@ WARM_IPOPT = {"ipopt.mu_init": 1e-8, "ipopt.bound_push": 1e-9, "ipopt.bound_frac
 AT_HAND = 3              # solutions kept as possible judges of later meshes
 # A warm solve that takes more IPOPT iterations than this many times the first mesh's cold solve (and at least
 # WARM_MIN_ITER) has been misled by its start: WARM_IPOPT's small barrier parameter keeps IPOPT near the start's
-# active set. It is stopped there and solved again from the same start with IPOPT's own options (_timed_solve).
+# active set. It is stopped there and solved again from the same start with IPOPT's own options (:func:`.mesh_solves.timed_solve`).
 # The suite's quadrotor from Radau 5 N = 10: its pilot took 149 iterations and 49 s of CPU to a worse optimum
 # (J = 123.386) with WARM_IPOPT, 6 iterations to J = 123.253 without; a mesh 1e-16 apart took 4 with it.
 WARM_FACTOR, WARM_MIN_ITER = 3, 30
@@ -196,45 +196,6 @@ def refine(scheme: Radau, ratio: np.ndarray, parents: dict | None = None,
         new_degrees.extend([degree] * len(pieces))
     new_mesh[-1] = 1.0
     return Radau(mesh=tuple(float(m) for m in new_mesh), degrees=tuple(new_degrees)), born
-
-
-def _build(problem, scheme: Radau, first):
-    """The NLP of ``scheme`` in the problem's own coordinates (joint ones under "auto" where they
-    apply), not cached on the problem (each mesh is solved once). After the first mesh, the NLP takes
-    the first one's equations in joint coordinates, problem view and point functions (the same for every
-    mesh of one refinement, whose problem nothing edits: building them again cost ~10 ms, then ~3.5 ms,
-    a mesh on the swing-up)."""
-    from .joint_transcription import JointTranscription
-    from .transcription import Transcription
-
-    if type(first) in (JointTranscription, Transcription):
-        return type(first)(problem, scheme, like=first)
-    return problem.transcription(scheme, cache=False)
-
-
-def _timed_solve(problem, scheme: Radau, ipopt_options: dict, warm_start, progress, first=None, fallback=None):
-    """Build and solve one transcription; ``first``: an earlier transcription of the same problem. ``fallback``:
-    IPOPT options to solve it again with, from the same start, where the solve with ``ipopt_options`` fails (a warm
-    solve's, :data:`WARM_FACTOR`); the failed attempt's status and iterations are kept as ``sol.warm_retry``."""
-    started, cpu = time.perf_counter(), time.process_time()
-    tr = _build(problem, scheme, first)
-    try:
-        try:
-            sol = tr.solve(ipopt_options, warm_start, progress=progress)
-        except OCPSolveError as exc:
-            failed = exc.solution
-            if fallback is None or failed is None or failed.status.startswith("interrupted"):
-                raise
-            sol = tr.solve(fallback, warm_start, progress=progress)
-            sol.warm_retry = {"status": failed.status, "iterations": failed.iterations}
-    finally:
-        elapsed, cpu_used = time.perf_counter() - started, time.process_time() - cpu
-    return sol, elapsed, cpu_used
-
-
-def _iterations(sol) -> int:
-    """IPOPT iterations of a solve, a failed warm attempt's included (:func:`_timed_solve`)."""
-    return sol.iterations + getattr(sol, "warm_retry", {}).get("iterations", 0)
 
 
 def solve_to_tolerance(problem, tolerance, method=None, ipopt_options: dict | None = None, warm_start=None, *,
