@@ -6,7 +6,7 @@ Swing-up (pendulum swing_up, the library's default coordinates: joint). The prob
 transcription made (its element kinds and their derivatives then cached on the problem, as after a
 refinement's first mesh); then, ``runs`` times each, medians of CPU (``time.process_time``, garbage
 collection off while timing): the whole build of a later mesh as the refinement makes it
-(``mesh_refinement._build`` with the first transcription), the block assembly (``BlockNLP``) alone and
+(``mesh_solves.build_mesh`` with the first transcription), the block assembly (``BlockNLP``) alone and
 its matrices (``_Entries.matrix``), ``nlpsol`` on the assembled derivatives, and the interpolated warm
 start (``guess_from``). Run it at two commits to compare them.
 """
@@ -19,7 +19,7 @@ import time
 
 import casadi as ca
 
-from ocp_constraints.ocp import mesh_refinement, nlp_assembly
+from ocp_constraints.ocp import mesh_solves, nlp_assembly
 from ocp_constraints.ocp.schemes import Radau
 from ocp_constraints.scenes.registry import build_task
 
@@ -40,10 +40,10 @@ def main(argv=None) -> int:
     args = ap.parse_args(argv)
     N, d = (int(v) for v in args.mesh.split("x"))
     problem = build_task("pendulum", "swing_up")[1]
-    first = mesh_refinement._build(problem, Radau(10, degree=3), None)
+    first = mesh_solves.build_mesh(problem, Radau(10, degree=3), None)
     coarse = first.solve({})
     scheme = Radau(N, degree=d)
-    tr = mesh_refinement._build(problem, scheme, first)        # kinds of degree d built and cached
+    tr = mesh_solves.build_mesh(problem, scheme, first)        # kinds of degree d built and cached
     spent = {"matrices": 0.0}
     original = nlp_assembly._Entries.matrix
 
@@ -56,7 +56,7 @@ def main(argv=None) -> int:
 
     gc.disable()
     try:
-        build = _cpu_ms(lambda: mesh_refinement._build(problem, scheme, first), args.runs)
+        build = _cpu_ms(lambda: mesh_solves.build_mesh(problem, scheme, first), args.runs)
         nlp_assembly._Entries.matrix = matrix
         block = _cpu_ms(lambda: nlp_assembly.BlockNLP(tr.block.n, tr.block.elements, nlp_assembly.derivative_cache(problem)),
                         args.runs)

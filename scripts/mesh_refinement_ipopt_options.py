@@ -16,7 +16,8 @@ import argparse
 import statistics
 import time
 
-from ocp_constraints.ocp.mesh_refinement import WARM_IPOPT, _build
+from ocp_constraints.ocp.mesh_refinement import WARM_IPOPT
+from ocp_constraints.ocp.mesh_solves import build_mesh
 from ocp_constraints.ocp.schemes import Radau
 
 VARIANTS = {
@@ -54,7 +55,7 @@ def main(argv=None) -> int:
             result = {}
             for _ in range(args.repeats):
                 for v, options in VARIANTS.items():
-                    tr = _build(problem, scheme, first)
+                    tr = build_mesh(problem, scheme, first)
                     started = time.process_time()
                     sol = tr.solve({**WARM_IPOPT, **options}, coarse)
                     cpu[v].append(time.process_time() - started)

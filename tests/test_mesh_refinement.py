@@ -189,6 +189,63 @@ def test_an_error_carried_over_the_whole_horizon_is_refined_where_it_is_made_not
         assert np.all(np.delete(ratio, 12) < 1.0)
 
 
+def test_a_multipliers_jump_at_a_mesh_point_is_counted_on_the_side_that_made_it():
+    """made_here with ``jumps``, on a multipliers' difference written the way Radau holds it (an interval's first
+    sample, the mesh point, is the interval before's last collocation value): interval 3 of 10 is off by 1e-3 as a
+    whole, a constant offset its own samples do not show, so it jumps at both of its mesh points. Interval 3 made
+    both jumps and is credited 1e-3; intervals 2 and 4, whose own differences are 0, are credited nothing."""
+    from ocp_constraints.ocp.error_estimate import made_here
+
+    mesh = np.linspace(0.0, 1.0, 11)
+    fractions = np.concatenate([np.linspace(a, b, 9) for a, b in zip(mesh[:-1], mesh[1:])])
+    owner = np.repeat(np.arange(10), 9)
+    drift = np.where(owner == 3, 1e-3, 0.0)
+    drift[np.searchsorted(owner, 3)] = 0.0          # interval 3's mesh point: interval 2's value
+    drift[np.searchsorted(owner, 4)] = 1e-3         # interval 4's mesh point: interval 3's value
+    local = made_here(drift[None, :], fractions, owner, 10, jumps=True)
+    assert local == pytest.approx([0, 0, 0, 1e-3, 0, 0, 0, 0, 0, 0], abs=1e-15)
+
+
+def test_a_warm_solve_ended_at_ipopts_acceptable_level_is_solved_again_from_the_guess(monkeypatch):
+    """mesh_solves.timed_solve with a transcription whose solves are scripted: a warm solve that IPOPT ends at its
+    acceptable level is solved again from the problem's guess (warm start None, the fallback options); that solution
+    is kept where it converges to the same optimum (recorded in ``warm_retry``), else the acceptable one is, and
+    Ctrl-C during the second solve is not swallowed."""
+    from types import SimpleNamespace
+
+    import ocp_constraints.ocp.mesh_solves as ms
+    from ocp_constraints.errors import OCPSolveError
+
+    def outcome(status, objective=1.0, iterations=5):
+        return SimpleNamespace(status=status, objective=objective, iterations=iterations)
+
+    def run(second):
+        calls = []
+
+        class Scripted:
+            def solve(self, options, warm_start, progress=None):
+                calls.append((options, warm_start))
+                result = outcome(ms.ACCEPTABLE, iterations=16) if len(calls) == 1 else second
+                if isinstance(result, Exception):
+                    raise result
+                return result
+
+        monkeypatch.setattr(ms, "build_mesh", lambda *args: Scripted())
+        sol, _, _ = ms.timed_solve(None, None, {"warm": 1}, "start", False, fallback={"own": 1})
+        return sol, calls
+
+    converged = outcome("Solve_Succeeded", objective=1.001, iterations=21)
+    sol, calls = run(converged)
+    assert sol is converged and calls == [({"warm": 1}, "start"), ({"own": 1}, None)]
+    assert sol.warm_retry["status"] == ms.ACCEPTABLE and ms.iterations(sol) == 21 + 16
+    elsewhere = outcome("Solve_Succeeded", objective=1.05)       # another optimum: 5% apart
+    assert run(elsewhere)[0].status == ms.ACCEPTABLE
+    assert run(outcome(ms.ACCEPTABLE))[0].iterations == 16
+    assert run(OCPSolveError("failed", outcome("Maximum_Iterations_Exceeded")))[0].status == ms.ACCEPTABLE
+    with pytest.raises(OCPSolveError):
+        run(OCPSolveError("stopped", outcome("interrupted by Ctrl-C")))
+
+
 def test_unresolved_step_halves_the_companion_and_rough_needs_a_non_smooth_interval():
     """uniform_step halves every interval of the companion at its degrees capped at MAX_DEGREE; refine
     splits at MIN_DEGREE an interval whose estimate fell less than tenfold only where it is not smooth,

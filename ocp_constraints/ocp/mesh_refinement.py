@@ -65,7 +65,7 @@ from .legendre_decay import DECAY_LIMIT, legendre_decay
 from .mesh_companions import (MAX_DEGREE, _degrees, _ends, as_fine, companion_of, finer, finer_at_hand,
                               pilot_of, pilot_pieces, reused_degree, split_pieces, uniform_step)
 from .mesh_progress import gave_up, interrupted, stall_message
-from .mesh_solves import build_mesh as _build, iterations as _iterations, timed_solve as _timed_solve
+from .mesh_solves import iterations as _iterations, timed_solve as _timed_solve   # scripts log _timed_solve
 from .nonsmooth import MIN_INTERVAL, flag_nonsmooth, judged_smoothness, nonsmooth_splits
 from .schemes import Radau
 from .switch_detection import detect_switches, jump_windows, split_points, touched
@@ -94,7 +94,8 @@ WARM_IPOPT = {"ipopt.mu_init": 1e-8, "ipopt.bound_push": 1e-9, "ipopt.bound_frac
 AT_HAND = 3              # solutions kept as possible judges of later meshes
 # A warm solve that takes more IPOPT iterations than this many times the first mesh's cold solve (and at least
 # WARM_MIN_ITER) has been misled by its start: WARM_IPOPT's small barrier parameter keeps IPOPT near the start's
-# active set. It is stopped there and solved again from the same start with IPOPT's own options (:func:`.mesh_solves.timed_solve`).
+# active set. It is stopped there and solved again from the same start with IPOPT's own options
+# (:func:`.mesh_solves.timed_solve`).
 # The suite's quadrotor from Radau 5 N = 10: its pilot took 149 iterations and 49 s of CPU to a worse optimum
 # (J = 123.386) with WARM_IPOPT, 6 iterations to J = 123.253 without; a mesh 1e-16 apart took 4 with it.
 WARM_FACTOR, WARM_MIN_ITER = 3, 30
