@@ -136,6 +136,15 @@ class KneeError(OcpConstraintsError, ValueError):
     """A knee-load computation cannot run: bad files, missing coordinates, solver failure."""
 
 
+class KneeSolveError(KneeError):
+    """IPOPT did not solve the knee's muscle-force problem; ``result`` holds its last iterate (``success``
+    False, IPOPT's status), which ``ocp-constraints knee`` writes as such and exits 1."""
+
+    def __init__(self, message: str, result):
+        super().__init__(message)
+        self.result = result
+
+
 # -- resources and interruption
 
 class ResourceLimitError(OcpConstraintsError, ValueError):

@@ -21,6 +21,7 @@ from pathlib import Path
 
 import numpy as np
 import opensim as osim
+osim.Logger.removeFileSink()   # else OpenSim writes opensim.log beside the model (in shared data)
 
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))

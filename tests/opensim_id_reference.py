@@ -17,6 +17,7 @@ import tempfile
 
 def main(model, motion, loads, t0, t1, out) -> None:
     import opensim
+    opensim.Logger.removeFileSink()
 
     out = os.path.abspath(out)
     with tempfile.TemporaryDirectory() as work:

@@ -144,6 +144,36 @@ def test_unwritable_output_folder_is_a_clear_error(tmp_path, capsys):
     assert "cannot write results" in capsys.readouterr().err
 
 
+@pytest.mark.parametrize("command", [["simulate", "whirling", "--t-final", "0.5"],
+                                     ["gait", "--model", "{G}/subject01_simbody.osim", "--motion",
+                                      "{G}/subject01_walk1_ik.mot", "--grf", "{G}/subject01_walk1_grf.mot"]])
+def test_a_disk_that_fills_while_the_results_are_written_is_one_line_and_keeps_the_folder(tmp_path, command):
+    """The results outgrow what the file system lets the run write (a real limit: RLIMIT_FSIZE, what a full
+    disk or a quota does to a write, EFBIG for ENOSPC): exit 2, one line naming the folder, no traceback, and
+    the folder keeps what it held (it was a traceback, with a staging folder left behind)."""
+    import resource
+    import signal
+    from pathlib import Path
+
+    shared = Path(__file__).resolve().parents[2] / "shared" / "data" / "opensim-gait2354-subject01"
+    out = tmp_path / "out"
+    out.mkdir()
+    (out / "mine.txt").write_text("the user's own file")
+
+    def small_files():      # in the child: 8 kB per file, and the write fails instead of killing the process
+        signal.signal(signal.SIGXFSZ, signal.SIG_IGN)
+        resource.setrlimit(resource.RLIMIT_FSIZE, (8192, 8192))
+
+    args = [a.format(G=shared) for a in command]
+    proc = subprocess.run([shutil.which("ocp-constraints"), *args, "--no-plots", "--out", str(out)],
+                          capture_output=True, text=True, timeout=300, preexec_fn=small_files,
+                          env={**os.environ, "MPLBACKEND": "Agg"})
+    assert proc.returncode == 2, proc.stderr
+    assert "Traceback" not in proc.stderr
+    assert proc.stderr.strip().splitlines()[-1] == f"error: cannot write results to '{out}': File too large"
+    assert sorted(p.name for p in out.iterdir()) == ["mine.txt"]
+
+
 def test_failed_simulation_writes_partial_results_marked_unsuccessful(tmp_path):
     code = main(["simulate", "sliding_disk", "--t-final", "2", "--out", str(tmp_path), "--no-plots",
                  "--param", "theta0=0.3", "--param", "psi_dot0=0", "--param", "phi_dot0=0",

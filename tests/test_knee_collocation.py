@@ -179,3 +179,24 @@ def test_a_failed_collocation_keeps_the_static_loads_and_says_so(tmp_path, monke
     assert fell.dtype.names == static.dtype.names
     for name in ("N_medial", "N_lateral", "N_total"):
         assert np.array_equal(fell[name], static[name])
+
+
+def test_a_failed_static_optimisation_writes_its_last_iterate_and_exits_1(tmp_path, monkeypatch, capsys):
+    """IPOPT stopped after 2 iterations on the static optimisation (a real failure, Maximum_Iterations_Exceeded;
+    a trial with ground reactions 30 times too large failed so after 42 s): the command writes the last iterate
+    with ``"success": false`` and IPOPT's status, says so, and exits 1 (it exited 2 with nothing written)."""
+    import ocp_constraints.biomech.knee_static as ks
+    from ocp_constraints.cli.main import main
+
+    real = ks.ipopt_solver
+    monkeypatch.setattr(ks, "ipopt_solver", lambda name, nlp, options: real(name, nlp, {**options, "ipopt.max_iter": 2}))
+    motion = tmp_path / "ik_30hz.csv"
+    _every_kth_frame_csv(motion, 4)
+    out = tmp_path / "failed"
+    assert main(["knee", "--model", str(JW_MODEL), "--motion", str(motion), "--grf", str(GRF), "--no-plots",
+                 "--method", "static", "--out", str(out)]) == 1
+    s = json.loads((out / "summary.json").read_text())
+    assert s["success"] is False and s["status"] == "Maximum_Iterations_Exceeded" and s["method"] == "static"
+    assert "error: IPOPT did not solve the muscle forces (status 'Maximum_Iterations_Exceeded')" in capsys.readouterr().err
+    loads = np.genfromtxt(out / "loads.csv", delimiter=",", names=True, deletechars="")
+    assert len(loads["t"]) == s["frames"] > 0

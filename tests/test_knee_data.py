@@ -127,6 +127,17 @@ def test_degrees_given_as_radians_and_the_reverse_are_detected(tmp_path):
     with pytest.raises(DataFileError, match=r"b\.mot: says inDegrees=yes in its header, but its angles look like "
                                             r"radians .*within 3\.2 degrees"):
         read_motion(tmp_path / "b.mot")
+    # radians labelled degrees, the heading of a subject walking along -x (a global angle near pi) among the joints
+    turned = tmp_path / "turned.mot"
+    cols = {"pelvis_rotation": np.pi + 0.05 * t, "hip_flexion_r": 0.5 * np.sin(3 * t),
+            "knee_angle_r": np.radians(-60 * np.sin(3 * t)), "ankle_angle_r": 0.2 * np.cos(3 * t)}
+    turned.write_text("\n".join(["turned", "version=1", f"nRows={len(t)}", f"nColumns={len(cols) + 1}", "inDegrees=yes",
+                                 "endheader", "\t".join(["time", *cols])]
+                                + ["\t".join(f"{v:.8g}" for v in (ti, *(c[k] for c in cols.values())))
+                                   for k, ti in enumerate(t)]) + "\n")
+    with pytest.raises(DataFileError, match=r"turned\.mot: says inDegrees=yes in its header, but its angles look like "
+                                            r"radians \('knee_angle_r' moves by 1\.04.*within 3\.2 degrees"):
+        read_motion(turned)
     # no inDegrees line (assumed radians): the range decides and the note says so
     (tmp_path / "c.mot").write_text(_motion_text(None, deg_rows))
     m = read_motion(tmp_path / "c.mot")
@@ -229,3 +240,15 @@ def test_a_selected_window_past_the_files_is_refused():
         run_inverse_dynamics(MODEL, IK, GRF, select=lambda plates, grf: (0.3, 1.0))
     r = run_inverse_dynamics(MODEL, IK, GRF, select=lambda plates, grf: (0.5, 1.0))
     assert r.t[0] == pytest.approx(0.5) and r.t[-1] == pytest.approx(1.0) and r.settings["timing"]["samples"] == 31
+
+
+def test_a_csv_saved_with_a_byte_order_mark_reads_as_without(tmp_path):
+    """Excel's "CSV UTF-8" starts the file with a BOM; it was read into the first column's name ("\\ufefftime"),
+    and the file refused for having no time column, while the message listed a 'time' column."""
+    rows = "".join(f"{0.01 * k:.2f},{-0.5 + 0.01 * k:.4f},{0.1 * k:.3f}\n" for k in range(20))
+    (tmp_path / "plain.csv").write_text("time,knee_angle_r,pelvis_tx\n" + rows, encoding="utf-8")
+    (tmp_path / "bom.csv").write_text("time,knee_angle_r,pelvis_tx\n" + rows, encoding="utf-8-sig")
+    assert (tmp_path / "bom.csv").read_bytes()[:3] == b"\xef\xbb\xbf"
+    plain, bom = read_motion(tmp_path / "plain.csv"), read_motion(tmp_path / "bom.csv")
+    np.testing.assert_array_equal(bom.time, plain.time)
+    np.testing.assert_array_equal(bom["knee_angle_r"], plain["knee_angle_r"])

@@ -78,6 +78,7 @@ LIVE = textwrap.dedent('''
     import json, sys
     import numpy as np
     import opensim as osim
+    osim.Logger.removeFileSink()   # else OpenSim writes opensim.log beside the model (in shared data)
     model = osim.Model(sys.argv[1]); state = model.initSystem(); cs = model.getCoordinateSet()
     for i in range(cs.getSize()):
         cs.get(i).setLocked(state, False)

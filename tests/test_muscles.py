@@ -48,6 +48,7 @@ LIVE = textwrap.dedent('''
     import json, sys
     import numpy as np
     import opensim as osim
+    osim.Logger.removeFileSink()   # else OpenSim writes opensim.log beside the model (in shared data)
     model = osim.Model(sys.argv[1]); state = model.initSystem(); cs = model.getCoordinateSet()
     for i in range(cs.getSize()):
         cs.get(i).setLocked(state, False)
@@ -133,6 +134,7 @@ def test_length_scaling_puts_fibres_at_optimal_length_in_the_reference_pose(path
 UNITS = textwrap.dedent('''
     import json, sys
     import opensim as osim
+    osim.Logger.removeFileSink()   # else OpenSim writes opensim.log beside the model (in shared data)
     model = osim.Model(sys.argv[1]); state = model.initSystem(); cs = model.getCoordinateSet()
     for i in range(cs.getSize()):
         cs.get(i).setLocked(state, False)

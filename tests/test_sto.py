@@ -83,6 +83,7 @@ def test_simulation_writes_sto_equal_to_its_csv(whirling_run, stem):
 OPENSIM_READ = r"""
 import json, sys
 import opensim as osim
+osim.Logger.removeFileSink()   # else OpenSim writes opensim.log beside the model (in shared data)
 out = {}
 for path in sys.argv[1:]:
     table = osim.TimeSeriesTable(path)

@@ -17,11 +17,11 @@ FILTER_TEXT = ("Butterworth low-pass, 3rd order, run forward and backward (zero 
 
 def check_cutoff(cutoff: float | None, motion: Table) -> float | None:
     """The low-pass cutoff (Hz) if it is usable: finite and strictly between 0 and the Nyquist
-    frequency ``1 / (2 dt)`` of the motion (``dt`` its median sample period). ``None`` means no
-    filter (asked for explicitly). Anything else is a :class:`GaitError` that says what to use."""
+    frequency ``1 / (2 dt)`` of the motion (``dt`` its mean sample period, :func:`sample_period`). ``None``
+    means no filter (asked for explicitly). Anything else is a :class:`GaitError` that says what to use."""
     if cutoff is None:
         return None
-    dt = float(np.median(np.diff(motion.time)))
+    dt = sample_period(motion.time)
     nyquist = 0.5 / dt
     fc = float(cutoff)
     if not np.isfinite(fc) or fc <= 0.0:
@@ -32,6 +32,13 @@ def check_cutoff(cutoff: float | None, motion: Table) -> float | None:
                         f"{motion.path} (sampled at {1.0 / dt:.4g} Hz): a low-pass filter cannot act there; "
                         f"give a cutoff below {nyquist:.4g} Hz (OpenSim's default is 6 Hz), or --no-filter")
     return fc
+
+
+def sample_period(t: np.ndarray) -> float:
+    """The mean sample period (s), from the span: ``(t_end - t_start) / (n - 1)``. Not the median step:
+    time stamps written to 4 decimals make a 120 Hz record's steps 0.0083 and 0.0084 s, whose median
+    (120.48 Hz) put the Nyquist frequency above the true 60 Hz and let a cutoff of 60.2 Hz through."""
+    return float((t[-1] - t[0]) / (len(t) - 1))
 
 
 def motion_units(motion: Table) -> dict:
@@ -46,7 +53,15 @@ def _opensim_iir(y: np.ndarray, dt: float, fc: float) -> np.ndarray:
     """OpenSim ``Signal::LowpassIIR``: 3rd-order Butterworth, forward then backward (zero phase).
 
     ``y``: samples along the first axis; columns are filtered together (one loop over time,
-    not one per column: the same arithmetic, 59 times fewer Python steps for JW)."""
+    not one per column: the same arithmetic, 59 times fewer Python steps for JW).
+
+    Each pass starts in the filter's steady state for its first sample (as if the signal had
+    been constant before it: SciPy's ``filtfilt`` with ``lfilter_zi``), not with OpenSim's
+    output set to the first three inputs. That start is not a state of the filter, and the
+    transient it sets off decays like the largest pole's radius to the power of the samples:
+    within the padding at 6 Hz (radius 0.74 on 60 Hz data), but not near the Nyquist frequency
+    (radius 0.995 at 29.9 Hz), where it moved gait2354's hip flexion by 1.29 rad where the
+    filter, nearly a pass-through there, should move it by 3e-5 (``tests/test_gait_filter.py``)."""
     if not 0.0 < fc < 0.5 / dt:        # check_cutoff refuses these before; never clamp silently
         raise GaitError(f"cutoff {fc:g} Hz is not below the Nyquist frequency {0.5 / dt:.4g} Hz of the resampled motion")
     wa = np.tan(2 * np.pi * fc * dt / 2.0)
@@ -57,11 +72,13 @@ def _opensim_iir(y: np.ndarray, dt: float, fc: float) -> np.ndarray:
                   (wa - 1) * (wa2 - wa + 1) / den])
 
     def once(x):
-        out = np.array(x, dtype=float)
+        # three samples of the first value ahead: the steady state of a filter whose gain at 0 Hz is 1
+        x = np.concatenate([np.repeat(np.asarray(x[:1], dtype=float), 3, axis=0), np.asarray(x, dtype=float)])
+        out = x.copy()
         for i in range(3, len(x)):
             out[i] = (a[0] * x[i] + a[1] * x[i - 1] + a[2] * x[i - 2] + a[3] * x[i - 3]
                       - b[1] * out[i - 1] - b[2] * out[i - 2] - b[3] * out[i - 3])
-        return out
+        return out[3:]
 
     return once(once(y)[::-1])[::-1]
 
@@ -177,7 +194,7 @@ def filter_coordinates(table: Table, names: list[str], cutoff: float | None = 6.
     """
     t = table.time
     Y = np.column_stack([table.column(n) for n in names])
-    dt_m = float(np.median(np.diff(t)))
+    dt_m = sample_period(t)
     settings = {"coordinates": {"applied": cutoff is not None, "cutoff_hz": cutoff,
                                 "motion_sampling_hz": 1.0 / dt_m, "nyquist_hz": 0.5 / dt_m,
                                 "filter": FILTER_TEXT if cutoff is not None else "none (--no-filter)",

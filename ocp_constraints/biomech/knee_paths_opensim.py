@@ -43,6 +43,7 @@ import sys
 
 import numpy as np
 import opensim as osim
+osim.Logger.removeFileSink()   # else OpenSim writes opensim.log beside the model (in shared data)
 
 PRIMARY = {  # coordinate: sampled range (rad); gait range of ngait_og5 plus a margin
     "hip_flexion": (-0.85, 0.60), "hip_adduction": (-0.30, 0.30), "hip_rotation": (-0.55, 0.15),

@@ -18,7 +18,7 @@ from .knee_options import METHOD_DEFAULT, METHOD_TEXT, METHODS, MUSCLE_MODELS, P
 from .knee_model import contact_matrix_function
 from .knee_static import frame_data, solve_static
 from .knee_summary import muscle_model_text as _muscle_model_text, passive_text as _passive_text
-from ..errors import KneeError
+from ..errors import KneeError, KneeSolveError
 
 LBF = 4.4482216153
 
@@ -229,10 +229,15 @@ def run_knee(model, motion, grf, measured=None, muscles_on: bool = True, muscle_
         from .knee_passive import less_joint_passive
 
         Qc = less_joint_passive(Qc, moments)
-    if hill is not None:
-        res = solve(gait.t, Qc, R, A, hill.active, muscles_on=muscles_on, passive=hill.passive)
-    else:
-        res = solve(gait.t, Qc, R, A, F0, muscles_on=muscles_on)
+    try:
+        if hill is not None:
+            res = solve(gait.t, Qc, R, A, hill.active, muscles_on=muscles_on, passive=hill.passive)
+        else:
+            res = solve(gait.t, Qc, R, A, F0, muscles_on=muscles_on)
+    except KneeSolveError as exc:   # IPOPT failed: its last iterate is the result, success False (the CLI exits 1)
+        res = exc.result
+        if method != "static":
+            res.fallback = f"{exc}; the loads are that static optimisation's last iterate"
     phase(method)
     res.muscles = paths.muscles
     bw = sum(b.mass for b in gait.osim.bodies.values()) * float(np.linalg.norm(gait.osim.gravity))
@@ -258,67 +263,66 @@ def write_knee_results(run: dict, out, plots: bool = True, inputs: dict | None =
     from ..output.sto import write_sto
 
     run_folder = RunFolder(out)        # written whole: the previous run's files are replaced
-    folder = run_folder.begin()
-    # the figure first: a drawing process draws it while this process writes the tables (cli_knee ends the
-    # process if this fails half-way); without one it is drawn here when its name is asked for
-    figure = _plot_submit(run, folder, figure_process) if plots else None
-    r = run["result"]
-    passive_name, passive = run.get("passive_hip", ("none", None))
-    cols = r.sample_columns()
-    if passive is not None:
-        cols["passive_hip_flexion_moment"] = passive
-    for c, m in run.get("passive_moments", {}).items():     # generalized forces on the JW coordinates
-        if c != "hip_flexion":
-            cols[f"passive_{c}_generalized_force"] = m
-    for c, m in run.get("fibre_passive_moments", {}).items():   # Hill: the fibres' share of Riener & Edrich's
-        cols[f"fibre_passive_{c}_generalized_force"] = m
-    write_csv(folder / "loads.csv", r.t, cols)
-    write_sto(folder / "loads.sto", r.t, cols)        # OpenSim storage files (inDegrees=no)
-    write_sto(folder / "muscle_forces.sto", r.t, {m: r.force[:, i] for i, m in enumerate(r.muscles)})
-    g = run["gait"]
-    if len(g.t) == len(r.t):
-        write_sto(folder / "trajectory.sto", r.t, dict(zip(g.coordinate_names, g.states["p"].T)))
-    from .knee_static import RESERVED
+    with run_folder.staged() as folder:
+        # the figure first: a drawing process draws it while this process writes the tables (cli_knee ends the
+        # process if this fails half-way); without one it is drawn here when its name is asked for
+        figure = _plot_submit(run, folder, figure_process) if plots else None
+        r = run["result"]
+        passive_name, passive = run.get("passive_hip", ("none", None))
+        cols = r.sample_columns()
+        if passive is not None:
+            cols["passive_hip_flexion_moment"] = passive
+        for c, m in run.get("passive_moments", {}).items():     # generalized forces on the JW coordinates
+            if c != "hip_flexion":
+                cols[f"passive_{c}_generalized_force"] = m
+        for c, m in run.get("fibre_passive_moments", {}).items():   # Hill: the fibres' share of Riener & Edrich's
+            cols[f"fibre_passive_{c}_generalized_force"] = m
+        write_csv(folder / "loads.csv", r.t, cols)
+        write_sto(folder / "loads.sto", r.t, cols)        # OpenSim storage files (inDegrees=no)
+        write_sto(folder / "muscle_forces.sto", r.t, {m: r.force[:, i] for i, m in enumerate(r.muscles)})
+        g = run["gait"]
+        if len(g.t) == len(r.t):
+            write_sto(folder / "trajectory.sto", r.t, dict(zip(g.coordinate_names, g.states["p"].T)))
+        from .knee_static import RESERVED
 
-    method = "static" if r.fallback else run.get("method", "static")      # the loads' method, not the one asked
-    summary = {"task": f"knee contact loads, {METHOD_TEXT[method]}", "method": method, "success": r.success,
-               "status": r.status, "fallback": r.fallback, "inputs": inputs or {},
-               "gait_cycle_s": list(run["cycle"]), "frames": len(r.t), "body_weight_N": run["bw"],
-               "solver": {"nlp": "all frames in one NLP, IPOPT (casadi.nlpsol)", "status": r.status,
-                          "max_equation_residual": r.residual},
-               "wall_time_s": {**r.timings, "inverse_dynamics": run["gait"].timings.get("total"),
-                               "total": run["wall_total"]},
-               "filter": run["gait"].settings.get("filter"), "timing": run["gait"].settings.get("timing"),
-               "angles": run["gait"].settings.get("angles"),
-               "model_data": run["model_data"].summary() if run.get("model_data") else None,
-               "muscle_model": _muscle_model_text(run), "quadriceps": run.get("quadriceps", "model-paths"),
-               "peak_reserve_Nm": {c: float(np.abs(r.reserve[:, i]).max()) for i, c in enumerate(RESERVED)},
-               "passive_hip": _passive_text(passive_name, passive, run.get("passive_moments", {}),
-                                            run.get("fibre_passive_moments", {})),
-               "peak_bw": {"medial": float(r.medial.max() / run["bw"]), "lateral": float(r.lateral.max() / run["bw"]),
-                           "total": float(r.total.max() / run["bw"])},
-               "comparison": run.get("comparison"), "software": software_versions()}
-    if method == "collocation":
-        from .knee_collocation import SMOOTHING
+        method = "static" if r.fallback else run.get("method", "static")      # the loads' method, not the one asked
+        summary = {"task": f"knee contact loads, {METHOD_TEXT[method]}", "method": method, "success": r.success,
+                   "status": r.status, "fallback": r.fallback, "inputs": inputs or {},
+                   "gait_cycle_s": list(run["cycle"]), "frames": len(r.t), "body_weight_N": run["bw"],
+                   "solver": {"nlp": "all frames in one NLP, IPOPT (casadi.nlpsol)", "status": r.status,
+                              "max_equation_residual": r.residual},
+                   "wall_time_s": {**r.timings, "inverse_dynamics": run["gait"].timings.get("total"),
+                                   "total": run["wall_total"]},
+                   "filter": run["gait"].settings.get("filter"), "timing": run["gait"].settings.get("timing"),
+                   "angles": run["gait"].settings.get("angles"),
+                   "model_data": run["model_data"].summary() if run.get("model_data") else None,
+                   "muscle_model": _muscle_model_text(run), "quadriceps": run.get("quadriceps", "model-paths"),
+                   "peak_reserve_Nm": {c: float(np.abs(r.reserve[:, i]).max()) for i, c in enumerate(RESERVED)},
+                   "passive_hip": _passive_text(passive_name, passive, run.get("passive_moments", {}),
+                                                run.get("fibre_passive_moments", {})),
+                   "peak_bw": {"medial": float(r.medial.max() / run["bw"]), "lateral": float(r.lateral.max() / run["bw"]),
+                               "total": float(r.total.max() / run["bw"])},
+                   "comparison": run.get("comparison"), "software": software_versions()}
+        if method == "collocation":
+            from .knee_collocation import SMOOTHING
 
-        summary["solver"]["transcription"] = ("first-order Radau IIA (backward Euler) collocation of the activation "
-                                              "ODE on the frames' time grid (the frames are the mesh)")
-        summary["solver"]["max_activation_ode_residual"] = r.ode_residual
-        summary["activation_dynamics"] = {
-            "model": ("da/dt = (e - a)(e/tau_act + (1 - e)/tau_deact), Raasch et al. 1997, J Biomech 30:595"
-                      if SMOOTHING == 0 else "da/dt = (e - a)/tau(e, a), De Groote et al. 2016, Ann Biomed Eng "
-                      "44:2922 (doi:10.1007/s10439-016-1591-9), eqs. 1-2"),
-            "initial_guess": "the static optimisation's solution (e = a)",
-            "tau_act_s": r.tau[0], "tau_deact_s": r.tau[1], "smoothing_b": SMOOTHING,
-            "objective": "int sum (e^2 + a^2)/2 + reserve_weight sum rho^2 dt (trapezoidal weights)"}
-        summary["solve_time_s"] = r.timings["build"] + r.timings["solve"]
-    if plots:
-        summary["plots"] = [figure()]
-        summary["report"] = "report.html"
-    write_json(folder / "summary.json", summary)
-    if plots:
-        write_report(folder, summary)
-    run_folder.commit()
+            summary["solver"]["transcription"] = ("first-order Radau IIA (backward Euler) collocation of the activation "
+                                                  "ODE on the frames' time grid (the frames are the mesh)")
+            summary["solver"]["max_activation_ode_residual"] = r.ode_residual
+            summary["activation_dynamics"] = {
+                "model": ("da/dt = (e - a)(e/tau_act + (1 - e)/tau_deact), Raasch et al. 1997, J Biomech 30:595"
+                          if SMOOTHING == 0 else "da/dt = (e - a)/tau(e, a), De Groote et al. 2016, Ann Biomed Eng "
+                          "44:2922 (doi:10.1007/s10439-016-1591-9), eqs. 1-2"),
+                "initial_guess": "the static optimisation's solution (e = a)",
+                "tau_act_s": r.tau[0], "tau_deact_s": r.tau[1], "smoothing_b": SMOOTHING,
+                "objective": "int sum (e^2 + a^2)/2 + reserve_weight sum rho^2 dt (trapezoidal weights)"}
+            summary["solve_time_s"] = r.timings["build"] + r.timings["solve"]
+        if plots:
+            summary["plots"] = [figure()]
+            summary["report"] = "report.html"
+        write_json(folder / "summary.json", summary)
+        if plots:
+            write_report(folder, summary)
     return summary
 
 

@@ -29,7 +29,7 @@ import casadi as ca
 import numpy as np
 
 from ..dynamics.result import Result
-from ..errors import KneeError
+from ..errors import KneeError, KneeSolveError
 from ..ocp.solver_threads import ipopt_solver
 from ..output.signals import call_interruptibly
 from .knee_contact import KNEE_COORDINATES
@@ -254,8 +254,10 @@ def solve_static(t, Qc, R, A, F0, muscles_on: bool = True, contact_nonnegative: 
     Xs[nm:nm + 5] *= LOAD_SCALE
     g = _balance_residual(Qc, R, A, Xs[:nm].T * F0 + passive, Xs[nm:nm + 5].T, Xs[nm + 5:].T)
     done = time.perf_counter()
-    if not solver.stats()["success"]:
-        raise KneeError(f"static optimisation failed: IPOPT status '{status}', max equation residual {g:.3g}")
     act = Xs[:nm].T
-    return StaticResult(np.asarray(t), [], act, act * F0 + passive, Xs[nm:nm + 5].T, Xs[nm + 5:].T, float(g), status,
-                        {"build": built - clock, "solve": done - built}, success=bool(solver.stats()["success"]))
+    result = StaticResult(np.asarray(t), [], act, act * F0 + passive, Xs[nm:nm + 5].T, Xs[nm + 5:].T, float(g), status,
+                          {"build": built - clock, "solve": done - built}, success=bool(solver.stats()["success"]))
+    if not result.success:      # the last iterate goes with the error: a failed run keeps what it had
+        raise KneeSolveError(f"static optimisation failed: IPOPT status '{status}', max equation residual {g:.3g}",
+                             result)
+    return result

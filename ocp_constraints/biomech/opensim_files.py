@@ -107,7 +107,7 @@ def _rows(lines: list[str], first_line: int, names: list[str], path, sep: str | 
 
 def _read_text(path: Path) -> list[str]:
     try:
-        return path.read_text(encoding="utf-8", errors="replace").splitlines()
+        return path.read_text(encoding="utf-8-sig", errors="replace").splitlines()   # -sig: a BOM (Excel's "CSV UTF-8") is not part of the first name
     except OSError as exc:
         raise DataFileError(path, f"cannot be read: {exc.strerror or exc}") from exc
 

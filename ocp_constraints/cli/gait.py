@@ -83,9 +83,14 @@ def cli_gait(args) -> int:
     finally:
         if drawer is not None:
             drawer.close()
-    for note in (summary.get("timing") or {}).get("notes", []) + [v for k, v in (summary.get("angles") or {}).items()
-                                                                   if k == "angle_unit_note"]:
-        print(f"note: {note}", file=sys.stderr)
+    print_data_notes(summary)
     print(f"gait: {summary['samples']} samples {summary['t_start']:g} ... {summary['t_end']:g} s, "
           f"plates {summary['plates']}, inverse dynamics in {result.timings['total']:.2f} s; results in {args.out}")
     return 0
+
+
+def print_data_notes(summary: dict) -> None:
+    """What was done about the data files (time stamps, angle units; also in summary.json), on stderr."""
+    for note in (summary.get("timing") or {}).get("notes", []) + [v for k, v in (summary.get("angles") or {}).items()
+                                                                   if k == "angle_unit_note"]:
+        print(f"note: {note}", file=sys.stderr)

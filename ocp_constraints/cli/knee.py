@@ -6,6 +6,7 @@ import sys
 
 from ..biomech.knee_options import METHOD_DEFAULT, METHOD_TEXT, METHODS, MUSCLE_MODELS, PASSIVE_DEFAULT, PASSIVE_HIP, QUADRICEPS, QUADRICEPS_DEFAULT
 from ..errors import OcpConstraintsError
+from .gait import print_data_notes
 from .interruption import write_if_interrupted
 from .help import JW_MODEL, JW_TRIAL, HelpFormatter, example
 
@@ -100,10 +101,13 @@ def cli_knee(args) -> int:
     finally:
         if figures is not None:
             figures.close()
-    for note in (summary.get("timing") or {}).get("notes", []):
-        print(f"note: {note}", file=sys.stderr)
+    print_data_notes(summary)
     if summary.get("fallback"):
         print(f"warning: {summary['fallback']}", file=sys.stderr)
+    if not summary["success"]:      # IPOPT failed: its last iterate is written, marked so (DESIGN.md: exit 1)
+        print(f"error: IPOPT did not solve the muscle forces (status '{summary['status']}'); its last iterate is "
+              f"written to {args.out} with \"success\": false", file=sys.stderr)
+        return 1
     w = summary["wall_time_s"]
     print(f"knee: cycle {summary['gait_cycle_s'][0]:g}-{summary['gait_cycle_s'][1]:g} s, {summary['frames']} frames, "
           f"{METHOD_TEXT[summary['method']]} {w['build'] + w['solve']:.2f} s; results in {args.out}")

@@ -26,6 +26,7 @@ import json
 import os
 import shutil
 import tempfile
+from contextlib import contextmanager
 from pathlib import Path
 
 from ..errors import OcpConstraintsError
@@ -49,6 +50,7 @@ class RunFolder:
     def __init__(self, out: str | Path):
         self.path = prepare_output_folder(out)
         self.staging: Path | None = None
+        self.committed: list[str] = []     # the file names of the last commit
 
     def begin(self) -> Path:
         """A fresh staging folder (leftovers of an earlier crashed run are removed first)."""
@@ -69,6 +71,23 @@ class RunFolder:
             _ACTIVE.discard(self.staging)
             shutil.rmtree(self.staging, ignore_errors=True)
             self.staging = None
+
+    @contextmanager
+    def staged(self):
+        """``with folder.staged() as staging:`` write every file into ``staging``; on leaving the block they
+        are committed (:meth:`commit`). An exception drops them and the folder keeps what it held; an
+        ``OSError`` while writing (a full disk, a quota) becomes the one-line :class:`OcpConstraintsError`
+        that names the folder, not a traceback. The committed file names are then in :attr:`committed`."""
+        staging = self.begin()
+        try:
+            yield staging
+        except OSError as exc:
+            self.abort()
+            raise OcpConstraintsError(f"cannot write results to '{self.path}': {exc.strerror or exc}") from exc
+        except BaseException:
+            self.abort()
+            raise
+        self.committed = self.commit()
 
     def previous_files(self) -> set[str]:
         """Files an earlier run of the toolkit wrote here (by the manifest, else by its summary.json)."""

@@ -165,8 +165,7 @@ def write_trajectory_results(out: RunFolder | str | Path, traj: Trajectory, summ
     ``out`` (a :class:`RunFolder` or a folder path): the previous run's files there are replaced,
     summary.json last (DESIGN.md). Returns the file names."""
     folder = out if isinstance(out, RunFolder) else RunFolder(out)
-    staging = folder.begin()
-    try:
+    with folder.staged() as staging:
         states = {**traj.state_columns(), **inputs}
         loads = traj.loads()
         write_csv(staging / "trajectory.csv", traj.t, states)
@@ -180,10 +179,7 @@ def write_trajectory_results(out: RunFolder | str | Path, traj: Trajectory, summ
         write_json(staging / "summary.json", summary)
         if plots:
             write_report(staging, summary, plots=summary["plots"])
-        return folder.commit()
-    except BaseException:
-        folder.abort()
-        raise
+    return folder.committed
 
 
 def _drives(traj) -> dict[str, tuple[np.ndarray, np.ndarray]]:
