@@ -178,6 +178,9 @@ def _window(motion: Table, grf: Table, start, end, times) -> tuple[np.ndarray, d
     over that sliver); otherwise the overlap of the two ranges is used. Only a window
     outside the overlap, or a gap inside a record, is an error, and it names both ranges.
     """
+    if len(motion.time) < 6:        # the coordinates' quintic splines need 6 (one sample: no step to speak of)
+        raise GaitError(f"the motion {motion.path} has {len(motion.time)} sample(s); at least 6 are needed "
+                        f"(speeds and accelerations come from quintic splines through them)")
     dt = float(np.median(np.diff(motion.time)))
     tol = 0.5 * dt
     m0, m1, g0, g1 = float(motion.time[0]), float(motion.time[-1]), float(grf.time[0]), float(grf.time[-1])
@@ -335,6 +338,8 @@ def run_inverse_dynamics(model_path, motion_path, grf_path, start: float | None 
               for n, j in meta["joints"].items()}
     states = _States(osim, bodies, {"q": q, "u": u, "udot": ud, "p": P, "pdot": Pd, "pddot": Pdd, "fext": fext})
     warnings = [w.replace("{osim_path}", str(osim.path)) for w in meta["warnings"]]
+    warnings += [f"{grf.path}: {pl.name} has no free-torque column(s) {', '.join(m)}: taken as zero" for pl in plates
+                 if (m := [a for a in ("torque_x", "torque_y", "torque_z") if a not in pl.columns])]
     model_info = {"functions": fns.source, "compiled": fns.compiled, "key": fns.key,
                   "operations_per_frame": meta.get("instructions")}
     return GaitResult(t, names, gen, lam, tau, residual, loads, joints, legs, assigned, timings, warnings, osim, fns,

@@ -44,7 +44,10 @@ def sample_period(t: np.ndarray) -> float:
 def motion_units(motion: Table) -> dict:
     """How the motion's angles were read (header, extension or range; see :func:`read_motion`)."""
     keys = ("angles_converted_from_degrees", "in_degrees_source", "angle_unit_note")
-    return {k: motion.metadata[k] for k in keys if k in motion.metadata}
+    found = {k: motion.metadata[k] for k in keys if k in motion.metadata}
+    if "angles_converted_from_degrees" in found:        # kept as text among the header's entries; a flag here
+        found["angles_converted_from_degrees"] = found["angles_converted_from_degrees"] == "True"
+    return found
 
 
 # -- 2. coordinates: OpenSim's filter and spline ------------------------------------------------

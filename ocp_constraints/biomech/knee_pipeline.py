@@ -174,6 +174,8 @@ def run_knee(model, motion, grf, measured=None, muscles_on: bool = True, muscle_
     from .knee_model_data import knee_model_data
     from .knee_muscles import MusclePaths, muscle_parameters
 
+    # the measured loads first: a file that cannot be read fails before the optimisation, not after it
+    meas = None if measured is None else read_measured(measured)
     clock = time.perf_counter()
     phase = _Phases()
     data = knee_model_data(model, implant_meshes, build=build_model_data)
@@ -245,10 +247,13 @@ def run_knee(model, motion, grf, measured=None, muscles_on: bool = True, muscle_
            "method": method, "model_data": data, "quadriceps": quadriceps, "passive_hip": (passive_hip, passive),
            "passive_moments": moments, "fibre_passive_moments": fibre_moments,
            "wall_total": time.perf_counter() - clock, "step_times": phase.table}
-    if measured is not None:
-        meas = read_measured(measured)
+    if meas is not None:
         out["measured"] = meas
-        out["comparison"] = compare(res.t, {"medial": res.medial, "lateral": res.lateral, "total": res.total}, meas, bw)
+        try:
+            out["comparison"] = compare(res.t, {"medial": res.medial, "lateral": res.lateral, "total": res.total},
+                                        meas, bw)
+        except KneeError as exc:
+            raise KneeError(f"{measured}: {exc}") from None
     return out
 
 
@@ -294,7 +299,7 @@ def write_knee_results(run: dict, out, plots: bool = True, inputs: dict | None =
                    "wall_time_s": {**r.timings, "inverse_dynamics": run["gait"].timings.get("total"),
                                    "total": run["wall_total"]},
                    "filter": run["gait"].settings.get("filter"), "timing": run["gait"].settings.get("timing"),
-                   "angles": run["gait"].settings.get("angles"),
+                   "angles": run["gait"].settings.get("angles"), "warnings": run["gait"].warnings,
                    "model_data": run["model_data"].summary() if run.get("model_data") else None,
                    "muscle_model": _muscle_model_text(run), "quadriceps": run.get("quadriceps", "model-paths"),
                    "peak_reserve_Nm": {c: float(np.abs(r.reserve[:, i]).max()) for i, c in enumerate(RESERVED)},

@@ -71,6 +71,7 @@ def cli_gait(args) -> int:
                                       compiled=getattr(args, "compiled", "auto"))
         summary = write_gait_results(result, args.out, args.side, plots=not getattr(args, "no_plots", False),
                                      inputs={"model": args.model, "motion": args.motion, "grf": args.grf,
+                                             "start_s": args.start, "end_s": args.end, "side": args.side,
                                              "cutoff_hz": cutoff, "no_filter": cutoff is None}, drawer=drawer)
     except OcpConstraintsError as exc:
         print(f"error: {exc}", file=sys.stderr)
@@ -90,7 +91,10 @@ def cli_gait(args) -> int:
 
 
 def print_data_notes(summary: dict) -> None:
-    """What was done about the data files (time stamps, angle units; also in summary.json), on stderr."""
+    """What was done about the data files (time stamps, angle units, columns taken as zero; also in
+    summary.json), on stderr."""
     for note in (summary.get("timing") or {}).get("notes", []) + [v for k, v in (summary.get("angles") or {}).items()
                                                                    if k == "angle_unit_note"]:
         print(f"note: {note}", file=sys.stderr)
+    for warning in summary.get("warnings") or []:
+        print(f"warning: {warning}", file=sys.stderr)

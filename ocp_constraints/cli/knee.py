@@ -112,6 +112,10 @@ def cli_knee(args) -> int:
     print(f"knee: cycle {summary['gait_cycle_s'][0]:g}-{summary['gait_cycle_s'][1]:g} s, {summary['frames']} frames, "
           f"{METHOD_TEXT[summary['method']]} {w['build'] + w['solve']:.2f} s; results in {args.out}")
     if summary["comparison"]:
+        compared = next(iter(summary["comparison"].values()))["frames_compared"]
+        if compared < summary["frames"]:
+            print(f"note: the measured loads cover {compared} of the cycle's {summary['frames']} frames; only those "
+                  f"are compared", file=sys.stderr)
         for k, v in summary["comparison"].items():
             print(f"  {k}: RMSE {v['rmse_bw']:.2f} BW, r {v['r']:.2f}, R^2 {v.get('r2', float('nan')):.2f}, "
                   f"peak error {v['peak_error_bw']:+.2f} BW")
