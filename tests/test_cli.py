@@ -214,3 +214,18 @@ def test_an_option_that_is_not_nlpsols_is_refused_by_name_in_the_api():
     problem = build_task("pendulum", None)[1]
     with pytest.raises(ModelError, match="'foo' is not an option of CasADi's nlpsol.*'ipopt.foo'"):
         problem.solve(oc.Radau(5), {"foo": 1})
+
+
+def test_solve_to_a_tolerance_counts_every_solves_iterations_and_takes_max_refinements(tmp_path, capsys):
+    """Under --tolerance the line and summary.json said "3 iterations", the last solve's, where the refinement
+    took 17 over 3 solves; the refinement message's advice, --max-refinements, was no option."""
+    out = tmp_path / "swing_up"
+    assert main(["solve", "pendulum", "--tolerance", "1e-6", "--max-refinements", "3", "--no-plots",
+                 "--out", str(out)]) == 0
+    s = json.loads((out / "summary.json").read_text())
+    history = s["mesh_refinement"]["history"]
+    assert s["iterations"] == sum(h["iterations"] + h.get("companion_iterations", 0) for h in history)
+    assert s["iterations"] > s["iterations_last_solve"] and s["solves"] == sum(h["solves"] for h in history)
+    assert f"(the last of {s['solves']} solves, {s['iterations']} iterations in all)" in capsys.readouterr().out
+    assert main(["solve", "pendulum", "--max-refinements", "3", "--out", str(tmp_path / "x")]) == 2
+    assert "--max-refinements 3 applies with --tolerance only" in capsys.readouterr().err

@@ -82,3 +82,88 @@ def test_a_misspelt_quantity_gets_the_closest_names_not_every_name():
     with pytest.raises(oc.ModelError, match=r"did you mean 'disk.psi'"):
         ocp.bound("disk.pis", 0.0, 1.0)
     assert ocp.initial_values == {} and ocp.bounds == {}
+
+
+def _block(free_time: bool = False):
+    """A 2 kg block on a rail (prismatic joint along E1), pushed by F, rest to rest over 1 m in 1 s (or free time)."""
+    model = oc.Model("block", gravity=(0.0, 0.0, -9.81))
+    block = model.add_body("block", 2.0, np.diag([0.1, 0.2, 0.3]), rotation="321")
+    oc.joints.prismatic(model, "rail", block.com, axis=(1.0, 0.0, 0.0))
+    F = model.add_input("F")
+    model.add_force("push", block.com, ca.vertcat(F, 0, 0))
+    ocp = oc.OptimalControlProblem(model, t_final=1.0, t_final_bounds=(0.1, 5.0) if free_time else None)
+    ocp.initial({"block.x": 0.0, "block.vbar_x": 0.0})
+    ocp.final({"block.x": 1.0, "block.vbar_x": 0.0})
+    return ocp
+
+
+@pytest.mark.parametrize("lower, upper", [(math.nan, 1.0), (0.0, math.nan), (math.inf, math.inf),
+                                          (-math.inf, -math.inf)])
+def test_a_bound_that_is_not_a_number_or_infinite_on_the_wrong_side_is_refused_at_bound(lower, upper):
+    """They reached IPOPT as a raw CasADi 'Ill-posed problem detected: LBX[63]'."""
+    ocp = _block()
+    with pytest.raises(oc.ModelError, match=r"bound on 'F': got lower .*a bound is a number, or -inf"):
+        ocp.bound("F", lower, upper)
+    assert "F" not in ocp.bounds
+
+
+def test_a_method_that_is_not_a_scheme_is_refused_naming_the_schemes():
+    """solve('radau') was a raw AttributeError ('str' object has no attribute 'mesh_fractions')."""
+    with pytest.raises(oc.ModelError, match=r"method must be a scheme such as oc\.Radau\(50, degree=3\).*got 'radau'"):
+        _block().solve("radau")
+    with pytest.raises(oc.ModelError, match=r"method must be a scheme"):
+        _block().solve("radau", tolerance=1e-4)
+
+
+def test_a_horizon_edited_after_construction_is_checked_at_solve():
+    """t_final = -1 set on the object ran IPOPT to 'Diverging_Iterates'; t_final_bounds = None after
+    minimize_final_time solved a fixed time with the objective 0."""
+    ocp = _block()
+    ocp.minimize_effort()
+    ocp.t_final = -1.0
+    with pytest.raises(oc.ModelError, match=r"t_final must be a positive number of seconds, got -1\.0"):
+        ocp.solve(oc.Radau(5, degree=3))
+    timed = _block(free_time=True)
+    timed.bound("F", -10.0, 10.0)
+    timed.minimize_final_time()
+    timed.t_final_bounds = None
+    with pytest.raises(oc.ModelError, match=r"weighs the final time .* but the final time is fixed"):
+        timed.solve(oc.Radau(5, degree=3))
+
+
+def test_max_refinements_is_a_solve_option_as_the_refinement_message_says():
+    """The message "raise max_refinements" named an option problem.solve did not take (a TypeError)."""
+    ocp = _block()
+    ocp.minimize_effort()
+    ocp.bound("F", -10.0, 10.0)        # the push saturates (12 N unbounded): kinks, not met at 1e-8 in one refinement
+    sol = ocp.solve(tolerance=1e-8, max_refinements=1)
+    mr = sol.mesh_refinement
+    assert len(mr["history"]) <= 2 and mr["met"] is False
+    assert "max_refinements (solve(..., max_refinements=N), --max-refinements N)" in mr["message"]
+    for bad in (-1, 1.5, True):
+        with pytest.raises(oc.ModelError, match="max_refinements must be a whole number >= 0"):
+            ocp.solve(tolerance=1e-4, max_refinements=bad)
+    with pytest.raises(oc.ModelError, match=r"max_refinements applies to solve\(tolerance=\.\.\.\) only"):
+        ocp.solve(oc.Radau(5, degree=3), max_refinements=2)
+
+
+def test_results_asked_outside_the_horizon_or_by_a_time_name_say_what_to_do():
+    """interpolate past t_final extrapolated the polynomial silently (-4.0 for x on a 1 s horizon, the block going
+    0 -> 1); sample('t') ran its sentences together and did not name .t."""
+    ocp = _block()
+    ocp.minimize_effort()
+    sol = ocp.solve(oc.Radau(4, degree=3))
+    assert sol.interpolate("block.x", [0.0, 1.0]) == pytest.approx([0.0, 1.0], abs=1e-8)
+    with pytest.raises(oc.ModelError, match=r"interpolate\('block\.x'\): time\(s\) \[2\.0\] s lie outside the horizon "
+                                            r"0 \.\.\. 1 s"):
+        sol.interpolate("block.x", [0.5, 2.0])
+    with pytest.raises(oc.ModelError, match=r"no quantity named 't' in .*\. The sample times are the result's \.t"):
+        sol.sample("t")
+
+
+def test_minimize_effort_refuses_a_quantity_that_is_not_an_input():
+    """minimize_effort(['block.x']) added int x^2 dt silently; the docstring says inputs."""
+    ocp = _block()
+    with pytest.raises(oc.ModelError, match=r"minimize_effort: \['block\.x'\] are not inputs .*minimize_integral"):
+        ocp.minimize_effort(["block.x"])
+    assert ocp.integral_terms == []

@@ -52,6 +52,8 @@ def add_scene_parsers(sub) -> None:
                         "multipliers relative to the largest load), starting from --intervals N (default 10 "
                         "here) of --degree D (default 5 here, as problem.solve(tolerance=...)); summary.json gets the final "
                         "mesh, the estimates and the history")
+    o.add_argument("--max-refinements", type=int, default=None, metavar="R",
+                   help="with --tolerance: refinements after the first solve at most (default 10)")
     o.add_argument("--ipopt", action="append", default=[], metavar="NAME=VALUE",
                    help="an IPOPT option for every solve, e.g. --ipopt max_iter=500 or --ipopt compl_inf_tol=1e-13 (repeatable; "
                         "recorded in summary.json; names at https://coin-or.github.io/Ipopt/OPTIONS.html)")
@@ -145,6 +147,9 @@ def _solve(args) -> int:
                          "Drop --scheme, or drop --tolerance")
     if tolerance is not None and not 0 < tolerance < float("inf"):
         raise UsageError(f"--tolerance must be a positive number such as 1e-6, got {tolerance!r}")
+    if getattr(args, "max_refinements", None) is not None and tolerance is None:
+        raise UsageError(f"--max-refinements {args.max_refinements} applies with --tolerance only (mesh refinement); "
+                         f"add --tolerance TOL, or drop --max-refinements")
     ipopt_options = ipopt_arguments(getattr(args, "ipopt", []))
     task, problem = build_task(args.scene, args.task, parse_param_arguments(args.param))
     problem.coordinates = getattr(args, "coordinates", "auto")
@@ -156,7 +161,8 @@ def _solve(args) -> int:
     try:
         sol, summary = run_optimal_control(problem, args.scene, task, method, args.out, ipopt_options, plots=not args.no_plots,
                                            reintegrate=args.reintegrate, starts=getattr(args, "starts", 1),
-                                           seed=getattr(args, "seed", 0), tolerance=tolerance)
+                                           seed=getattr(args, "seed", 0), tolerance=tolerance,
+                                           max_refinements=getattr(args, "max_refinements", None))
     except OCPSolveError as exc:
         print(f"error: {exc}", file=sys.stderr)
         if args.out:
@@ -164,7 +170,9 @@ def _solve(args) -> int:
         return 1
     res = summary["max_constraint_residual"]
     print(
-        f"{args.scene} {task}: {summary['status']} in {sol.iterations} iterations, objective {sol.objective:.10g}; "
+        f"{args.scene} {task}: {summary['status']} in {sol.iterations} iterations"
+        + (f" (the last of {summary['solves']} solves, {summary['iterations']} iterations in all)" if "solves" in summary else "")
+        + f", objective {sol.objective:.10g}; "
         f"build {summary['wall_time']['build']:.2f} s, solve {summary['wall_time']['solve']:.3f} s; "
         f"max residuals position {res['position']:.1e}, velocity {res['velocity']:.1e}"
     )

@@ -33,8 +33,9 @@ def unknown_name_message(name: str, names: list[str], what: str = "quantity", wh
     """``no <what> named '<name>' in <where>``, the closest known names, and what to do."""
     close = difflib.get_close_matches(name, names, n=5, cutoff=0.75)
     text = f"no {what} named '{name}' in {where}"
-    if close:
-        text += f"; did you mean {', '.join(repr(c) for c in close)}?"
+    text += f"; did you mean {', '.join(repr(c) for c in close)}?" if close else "."
+    if what == "quantity" and name in ("t", "time"):
+        text += " The sample times are the result's .t (s)."
     if what == "quantity" and ("@" in name or name.rsplit(".", 1)[-1][:2] in ("F_", "M_")):
         # a joint load asked of sample(): loads live in their own table (paper eq. 33 moves them)
         text += " Joint loads (F_c at X_C, M_c, power) are the columns of .loads(), e.g. .loads()['<joint>.F_x']."

@@ -76,7 +76,15 @@ def nlp_variables(problem, method) -> int:
 
 # -- the horizon, guesses and bounds ------------------------------------------------------------
 def _check_horizon(problem) -> None:
+    # Checked again here, not only by the constructor: an attribute set after it (problem.t_final = -1) ran IPOPT to
+    # 'Diverging_Iterates', and t_final_bounds = None after minimize_final_time solved a fixed time to objective 0.
+    if not (np.isfinite(problem.t_final) and problem.t_final > 0):
+        raise ModelError(f"t_final must be a positive number of seconds, got {problem.t_final!r}")
     if problem.t_final_bounds is None:
+        if problem.time_weight:
+            raise ModelError(f"the objective weighs the final time ({problem.time_weight:g} per s, "
+                             f"minimize_final_time) but the final time is fixed (t_final_bounds is None): set "
+                             f"t_final_bounds = (lower, upper), or make a new problem without the time term")
         return
     lo, hi = problem.t_final_bounds
     if not (np.isfinite(lo) and np.isfinite(hi)) or lo <= 0 or lo > hi:

@@ -120,13 +120,21 @@ def check_tolerance(tolerance) -> float:
     return tol
 
 
+def check_max_refinements(value) -> int:
+    """``max_refinements`` as an int >= 0, or a :class:`ModelError` saying what is wrong with it."""
+    if isinstance(value, bool) or not isinstance(value, numbers.Integral) or value < 0:
+        raise ModelError(f"max_refinements must be a whole number >= 0 (refinements after the first solve), "
+                         f"got {value!r}")
+    return int(value)
+
+
 def start_scheme(method) -> Radau:
     """The first mesh: ``method`` if it is Radau, else :data:`START` (10 intervals of degree 5)."""
     if method is None:
         return Radau(START["intervals"], degree=START["degree"])
     if not isinstance(method, Radau):
         raise ModelError(f"mesh refinement to a tolerance raises Radau degrees and splits Radau intervals; "
-                         f"{method.label} has a fixed order: pass Radau(N, degree=d) as the starting mesh, or none")
+                         f"{getattr(method, 'label', repr(method))} has a fixed order: pass Radau(N, degree=d) as the starting mesh, or none")
     return method
 
 
@@ -297,7 +305,8 @@ def solve_to_tolerance(problem, tolerance, method=None, ipopt_options: dict | No
                                      f"differ by {est.objective_change:.1e} in the objective and {est.state_change:.2f} "
                                      f"of a state's range (more than a mesh error can: {UNRESOLVED_OBJECTIVE:g}, "
                                      f"{UNRESOLVED_STATE:g}), so the estimate is not an error; raise max_refinements "
-                                     f"or start from a finer mesh")
+                                     f"(solve(..., max_refinements=N), --max-refinements N) or start from a finer "
+                                     f"mesh")
                 break
             new, parents, solved = uniform_step(companion.transcription.scheme), None, None
             scheme, warm = new, companion
@@ -316,7 +325,8 @@ def solve_to_tolerance(problem, tolerance, method=None, ipopt_options: dict | No
         if r == max_refinements:
             record["message"] = (f"estimate still above {tol:g} after {r} refinements (states "
                                  f"{est.totals['states']:.1e}, multipliers {est.totals['multipliers']:.1e}); "
-                                 f"raise max_refinements or accept a larger tolerance")
+                                 f"raise max_refinements (solve(..., max_refinements=N), --max-refinements N) "
+                                 f"or accept a larger tolerance")
             mesh = scheme.mesh_fractions
             record["rough_intervals"] = [[float(a), float(b)] for a, b, q in zip(mesh[:-1], mesh[1:], ratio)
                                          if q > 1.0 and (parents or {}).get(_ends(a, b), np.inf) < 10.0 * q]

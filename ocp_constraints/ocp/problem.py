@@ -21,6 +21,7 @@ import numpy as np
 
 from .compiled_elements import check_policy
 from .solver_threads import one_blas_thread
+from .schemes import Scheme
 from ..mechanics.equations import SystemEquations
 from ..errors import ModelError
 from ..mechanics.model import Model
@@ -145,9 +146,14 @@ class OptimalControlProblem:
 
     def minimize_effort(self, inputs: list[str] | None = None, weight: float = 1.0) -> None:
         """``int sum tau_i^2 dt`` over the named inputs (default: all)."""
-        names = list(self.model.inputs) if inputs is None else inputs
+        names = list(self.model.inputs) if inputs is None else ([inputs] if isinstance(inputs, str) else list(inputs))
         if not names:
             raise ModelError(f"model '{self.model.name}' has no inputs to minimize")
+        others = [n for n in names if n not in self.model.inputs]
+        if others:      # a coordinate or speed here was silently int x^2 dt: minimize_integral says that on purpose
+            self.quantity(others[0])        # a misspelt name: the closest names
+            raise ModelError(f"minimize_effort: {others} are not inputs (the model's inputs: {list(self.model.inputs)}); "
+                             f"for int x^2 dt of another quantity use minimize_integral(problem.quantity(name) ** 2)")
         self.minimize_integral(sum(self.quantity(n) ** 2 for n in names), weight, "effort")
 
     def minimize_load_effort(self, constraints: list[str], weights: list[float] | None = None) -> None:
@@ -168,9 +174,14 @@ class OptimalControlProblem:
     def bound(self, name: str, lower: float = -np.inf, upper: float = np.inf) -> None:
         """Bounds on a coordinate, speed or input at every point (rates go to path constraints)."""
         self.quantity(name)
+        lower, upper = float(lower), float(upper)
         if lower > upper:
-            raise ModelError(f"bound on '{name}': lower {lower} exceeds upper {upper}")
-        self.bounds[name] = (float(lower), float(upper))
+            raise ModelError(f"bound on '{name}': lower {lower} exceeds upper {upper}; swap them if they are reversed")
+        # NaN, or an infinite bound on the wrong side, reached IPOPT as a raw "Ill-posed problem detected: LBX[63]"
+        if np.isnan(lower) or np.isnan(upper) or lower == np.inf or upper == -np.inf:
+            raise ModelError(f"bound on '{name}': got lower {lower}, upper {upper}; a bound is a number, or -inf "
+                             f"(lower) / inf (upper) for no bound on that side")
+        self.bounds[name] = (lower, upper)
 
     def subject_to(self, expression, lower: float = -np.inf, upper: float = np.inf, label: str = "path",
                    scale: float = 1.0) -> None:
@@ -254,7 +265,7 @@ class OptimalControlProblem:
     @one_blas_thread
     def solve(self, method=None, ipopt_options: dict | None = None, warm_start=None, *, check: bool = True,
               progress: bool | None = None, starts: int = 1, seed: int = 0, client=None,
-              tolerance: float | None = None):
+              tolerance: float | None = None, max_refinements: int | None = None):
         """Transcribe with ``method`` (a :mod:`~ocp_constraints.ocp.schemes` scheme) and solve with IPOPT.
 
         Before IPOPT starts, :func:`~ocp_constraints.ocp.diagnostics.check_problem` looks for what
@@ -277,11 +288,18 @@ class OptimalControlProblem:
         ``tolerance``: the error you accept (states in SI units, multipliers relative to the largest
         load); hp mesh refinement from ``method`` (a Radau mesh, default 10 intervals of degree 5)
         until the a-posteriori estimate meets it, the final mesh, the estimate per quantity and the
-        history in ``sol.mesh_refinement`` (:func:`~ocp_constraints.ocp.mesh_refinement.solve_to_tolerance`).
+        history in ``sol.mesh_refinement`` (:func:`~ocp_constraints.ocp.mesh_refinement.solve_to_tolerance`);
+        ``max_refinements``: how many refinements at most (default
+        :data:`~ocp_constraints.ocp.mesh_refinement.MAX_REFINEMENTS`).
         """
+        if method is not None and not isinstance(method, Scheme):
+            raise ModelError(f"method must be a scheme such as oc.Radau(50, degree=3), oc.HermiteSimpson(50) or "
+                             f"oc.Trapezoidal(50), got {method!r}")
+        if max_refinements is not None and tolerance is None:
+            raise ModelError("max_refinements applies to solve(tolerance=...) only")
         if tolerance is not None:
             from .diagnostics import check_problem
-            from .mesh_refinement import check_tolerance, solve_to_tolerance, start_scheme
+            from .mesh_refinement import check_max_refinements, check_tolerance, solve_to_tolerance, start_scheme
 
             tolerance = check_tolerance(tolerance)
             if starts != 1:
@@ -290,7 +308,8 @@ class OptimalControlProblem:
             self.structure_key()
             if check:
                 check_problem(self, start_scheme(method))
-            return solve_to_tolerance(self, tolerance, method, ipopt_options, warm_start, progress=progress)
+            limit = {} if max_refinements is None else {"max_refinements": check_max_refinements(max_refinements)}
+            return solve_to_tolerance(self, tolerance, method, ipopt_options, warm_start, progress=progress, **limit)
         if method is None:
             raise ModelError("solve needs a method (e.g. Radau(50, degree=3)) or a tolerance (e.g. tolerance=1e-6)")
         if starts != 1:

@@ -14,6 +14,7 @@ import numpy as np
 
 from ..dynamics.result import Result
 from ..dynamics.trajectory import Trajectory
+from ..errors import ModelError
 
 
 @dataclass
@@ -92,6 +93,12 @@ class OCPSolution(Result):
         polynomials of those schemes have the same degree).
         """
         times = np.atleast_1d(np.asarray(times, dtype=float))
+        slack = 1e-6 * self.t_final          # rounding (another solution's final time): held at the ends
+        outside = times[(times < -slack) | (times > self.t_final + slack)]
+        if outside.size:    # a polynomial extrapolated past the horizon is no solution value (it returned -4 for x)
+            raise ModelError(f"interpolate('{name}'): time(s) {outside[:3].tolist()} s lie outside the horizon "
+                             f"0 ... {self.t_final:g} s")
+        times = np.clip(times, 0.0, self.t_final)
         # One matrix for all times (an hp mesh: each interval its own degree), in normalized time;
         # kept for the last times asked, since a warm start asks for every quantity at the same ones.
         key, cached = times.tobytes(), self.__dict__.get("_interpolation")

@@ -198,7 +198,8 @@ def _drives(traj) -> dict[str, tuple[np.ndarray, np.ndarray]]:
 def run_optimal_control(problem: OptimalControlProblem, scene_name: str, task: str, method,
                         out: str | Path | None = None, ipopt_options: dict | None = None,
                         plots: bool = True, reintegrate: bool = False, starts: int = 1,
-                        seed: int = 0, tolerance: float | None = None) -> tuple[OCPSolution, dict]:
+                        seed: int = 0, tolerance: float | None = None,
+                        max_refinements: int | None = None) -> tuple[OCPSolution, dict]:
     """Solve ``problem`` with the transcription ``method``; write results if ``out`` is given.
 
     ``summary`` carries the work of every joint load (e.g. a motor's energy) and, with
@@ -208,12 +209,15 @@ def run_optimal_control(problem: OptimalControlProblem, scene_name: str, task: s
     A failed solve writes the last iterate with ``"success": false`` and re-raises.
     ``tolerance``: hp mesh refinement from ``method`` until the estimated error meets it
     (:mod:`~ocp_constraints.ocp.mesh_refinement`); ``summary["mesh_refinement"]`` has the final
-    mesh, the estimate per quantity and the history.
+    mesh, the estimate per quantity and the history (at most ``max_refinements`` refinements), and
+    ``summary["iterations"]`` counts every solve's IPOPT iterations (the last solve's alone:
+    ``"iterations_last_solve"``).
     """
     folder = RunFolder(out) if out is not None else None
     error: OCPSolveError | None = None
     try:
-        sol = problem.solve(method, ipopt_options, starts=starts, seed=seed, tolerance=tolerance)
+        sol = problem.solve(method, ipopt_options, starts=starts, seed=seed, tolerance=tolerance,
+                            max_refinements=max_refinements)
     except OCPSolveError as exc:
         if exc.solution is None:     # nothing to write (e.g. every multi-start task failed on its worker)
             raise
@@ -243,6 +247,9 @@ def run_optimal_control(problem: OptimalControlProblem, scene_name: str, task: s
     }
     if getattr(sol, "mesh_refinement", None) is not None:     # tolerance: final mesh, estimate, history
         summary["mesh_refinement"] = sol.mesh_refinement
+        history = sol.mesh_refinement["history"]
+        summary.update(iterations=sum(h.get("iterations", 0) + h.get("companion_iterations", 0) for h in history),
+                       iterations_last_solve=sol.iterations, solves=sum(h.get("solves", 0) for h in history))
         summary["solver"].update(transcription=sol.transcription.scheme.label, intervals=sol.transcription.scheme.intervals,
                                  degree=None)
     if getattr(sol, "multistart", None) is not None:      # starts > 1: every start and the local optima found
