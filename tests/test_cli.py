@@ -229,3 +229,26 @@ def test_solve_to_a_tolerance_counts_every_solves_iterations_and_takes_max_refin
     assert f"(the last of {s['solves']} solves, {s['iterations']} iterations in all)" in capsys.readouterr().out
     assert main(["solve", "pendulum", "--max-refinements", "3", "--out", str(tmp_path / "x")]) == 2
     assert "--max-refinements 3 applies with --tolerance only" in capsys.readouterr().err
+
+
+def test_gait_and_knee_refuse_an_unwritable_out_before_computing(tmp_path, capsys, monkeypatch):
+    """The folder is checked first: it was checked when the results were written, after the whole inverse dynamics
+    and optimisation (7 s of knee lost)."""
+    from pathlib import Path
+
+    import ocp_constraints.biomech.gait as gait
+    import ocp_constraints.biomech.knee_pipeline as knee
+
+    def computed(*args, **kwargs):
+        raise AssertionError("computed before --out was checked")
+
+    monkeypatch.setattr(gait, "run_inverse_dynamics", computed)
+    monkeypatch.setattr(knee, "run_knee", computed)
+    blocker = tmp_path / "file"
+    blocker.write_text("not a folder")
+    g = Path(__file__).resolve().parents[2] / "shared" / "data" / "opensim-gait2354-subject01"
+    data = ["--model", str(g / "subject01_simbody.osim"), "--motion", str(g / "subject01_walk1_ik.mot"),
+            "--grf", str(g / "subject01_walk1_grf.mot"), "--no-plots", "--out", str(blocker / "sub")]
+    for command in ("gait", "knee"):
+        assert main([command, *data]) == 2
+        assert "cannot write results" in capsys.readouterr().err

@@ -333,7 +333,8 @@ def solve_to_tolerance(problem, tolerance, method=None, ipopt_options: dict | No
             if record["rough_intervals"]:
                 spots = ", ".join(f"{a:.4g}-{b:.4g}" for a, b in record["rough_intervals"][:4])
                 record["message"] += (f"; the estimate stays above it on intervals that refinement does not improve "
-                                      f"(a switch: inputs and multipliers jump there), at fractions {spots} of the horizon")
+                                      f"(a switch or a kink: inputs or multipliers jump or bend there), at fractions "
+                                      f"{spots} of the horizon")
             flag_nonsmooth(sol, tol, record, smoothness, windows)
             break
         if stalled := stall_message(history, tol, GATED):    # more points no longer pay (mesh_progress)
