@@ -61,13 +61,13 @@ def cli_gait(args) -> int:
     drawer = None if getattr(args, "no_plots", False) else DrawingProcess(warm=_warm_figure)
     from ..biomech.gait import run_inverse_dynamics
     from ..biomech.gait_report import write_gait_results
-    from ..output.files import prepare_output_folder
+    from ..output.files import check_output_folder
 
     from ..output.signals import signal_mark
 
     mark = signal_mark()
     try:
-        prepare_output_folder(args.out)       # an --out that cannot be written fails now, not after the computing
+        check_output_folder(args.out)       # an --out that cannot be written fails now, not after the computing
         cutoff = None if getattr(args, "no_filter", False) else args.cutoff
         result = run_inverse_dynamics(args.model, args.motion, args.grf, args.start, args.end, cutoff,
                                       compiled=getattr(args, "compiled", "auto"))

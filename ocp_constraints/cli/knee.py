@@ -66,7 +66,7 @@ def cli_knee(args) -> int:
     # inverse dynamics of ngait_og5 30 s -> 5 s on the loaded 2-core machine); set before NumPy loads
     os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
     from ..biomech.knee_pipeline import run_knee, write_knee_results
-    from ..output.files import prepare_output_folder
+    from ..output.files import check_output_folder
 
     from ..output.signals import signal_mark
 
@@ -77,7 +77,7 @@ def cli_knee(args) -> int:
 
         figures = DrawingProcess(warm=_warm_figure)
     try:
-        prepare_output_folder(args.out)       # an --out that cannot be written fails now, not after the computing
+        check_output_folder(args.out)       # an --out that cannot be written fails now, not after the computing
         cutoff = None if getattr(args, "no_filter", False) else getattr(args, "cutoff", 6.0)
         run = run_knee(args.model, args.motion, args.grf, args.measured, muscle_model=args.muscle_model,
                        method=args.method, cutoff=cutoff, implant_meshes=getattr(args, "implant_meshes", None),

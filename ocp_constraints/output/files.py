@@ -53,6 +53,24 @@ def prepare_output_folder(out: str | Path) -> Path:
     return path
 
 
+def check_output_folder(out: str | Path) -> None:
+    """The error :func:`prepare_output_folder` would raise, raised before a run computes anything, and nothing
+    created: ``out``, or the nearest folder above it that exists, must be a folder this process can write."""
+    path = Path(out)
+    existing = path
+    while not existing.exists() and existing.parent != existing:
+        existing = existing.parent
+    if existing == path and path.exists() and not path.is_dir():
+        raise OcpConstraintsError(f"cannot write results to '{path}': it exists and is not a folder; give another "
+                                  "--out (a folder, new or earlier results)")
+    if not existing.is_dir():
+        raise OcpConstraintsError(f"cannot write results to '{path}': '{existing}' is not a folder; give an --out "
+                                  "folder you can write to")
+    if not os.access(existing, os.W_OK | os.X_OK):
+        raise OcpConstraintsError(f"cannot write results to '{path}': '{existing}' is not writable; give an --out "
+                                  "folder you can write to")
+
+
 def current_umask() -> int:
     """The process's umask (read from /proc where it can be, so nothing is changed even briefly)."""
     try:
