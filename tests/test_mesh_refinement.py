@@ -399,3 +399,45 @@ def test_a_mesh_ipopt_cannot_solve_stops_the_refinement_with_the_last_estimated_
     assert record["estimate"] == record["history"][0]["estimate"]
     assert "Maximum_Iterations_Exceeded" in record["history"][1]["failed"]
     assert record["message"].startswith("stopped at refinement 1") and "solution of refinement 0 (4 intervals" in record["message"]
+
+
+
+def test_a_push_that_saturates_meets_1e_6_against_its_closed_form_with_the_advised_complementarity():
+    """A newcomer's block (2 kg on a rail, 1 m rest to rest in 1 s, min int F^2, |F| <= 10 N): the optimal push is
+    F = sat(c (T/2 - t)), c from x(T) = 1 by bisection on a 200,001-point quadrature (independent of the library).
+    With IPOPT's own complementarity tolerance (1e-4) the interior point rounds the corners where F reaches its bound:
+    the refinement at 1e-6 ends "not met" (22 solves), and its message now says what to try. With that advice
+    (compl_inf_tol 1e-13): met, the states' true error inside [0.1, 1] of the estimate, the push within 1e-5 N."""
+    import casadi as ca
+    from scipy.optimize import brentq
+
+    import ocp_constraints as oc
+
+    m, d, T, fmax = 2.0, 1.0, 1.0, 10.0
+    model = oc.Model("block", gravity=(0.0, -9.81, 0.0))
+    block = model.add_body("block", m, np.diag([0.1, 0.2, 0.3]), rotation="321")
+    oc.joints.prismatic(model, "rail", block.com, axis=(1.0, 0.0, 0.0))
+    model.add_force("push", block.com, ca.vertcat(model.add_input("F"), 0, 0))
+    ocp = oc.OptimalControlProblem(model, t_final=T)
+    ocp.initial({"block.x": 0.0, "block.vbar_x": 0.0})
+    ocp.final({"block.x": d, "block.vbar_x": 0.0})
+    ocp.bound("F", -fmax, fmax)
+    ocp.minimize_effort(["F"])
+
+    tt = np.linspace(0.0, T, 200_001)
+    c = brentq(lambda c: np.trapezoid((T - tt) * np.clip(c * (T / 2 - tt), -fmax, fmax) / m, tt) - d, 1.0, 1e3,
+               xtol=1e-14)
+    push = np.clip(c * (T / 2 - tt), -fmax, fmax)
+    v = np.concatenate([[0.0], np.cumsum((push[1:] + push[:-1]) / 2 * np.diff(tt))]) / m
+    x = np.concatenate([[0.0], np.cumsum((v[1:] + v[:-1]) / 2 * np.diff(tt))])
+
+    default = ocp.solve(tolerance=1e-6).mesh_refinement
+    assert not default["met"] and "try ipopt_options={'ipopt.compl_inf_tol': 1e-13}" in default["message"]
+    sol = ocp.solve(tolerance=1e-6, ipopt_options={"ipopt.compl_inf_tol": 1e-13})
+    mr = sol.mesh_refinement
+    assert mr["met"], mr["message"]
+    grid = np.linspace(0.0, T, 2001)
+    states = max(np.abs(sol.interpolate("block.x", grid) - np.interp(grid, tt, x)).max(),
+                 np.abs(sol.interpolate("block.vbar_x", grid) - np.interp(grid, tt, v)).max())
+    assert 0.1 * mr["estimate"]["states"] <= states <= mr["estimate"]["states"] <= 1e-6
+    assert np.abs(sol.sample("F") - np.clip(c * (T / 2 - sol.t), -fmax, fmax)).max() <= 1e-5

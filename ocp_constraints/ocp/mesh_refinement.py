@@ -64,7 +64,7 @@ from .error_estimate import UNRESOLVED_OBJECTIVE, UNRESOLVED_STATE, estimate_err
 from .legendre_decay import DECAY_LIMIT, legendre_decay
 from .mesh_companions import (MAX_DEGREE, _degrees, _ends, as_fine, companion_of, finer, finer_at_hand,
                               pilot_of, pilot_pieces, reused_degree, split_pieces, uniform_step)
-from .mesh_progress import gave_up, interrupted, stall_message
+from .mesh_progress import complementarity_advice, gave_up, interrupted, stall_message
 from .mesh_solves import iterations as _iterations, timed_solve as _timed_solve   # scripts log _timed_solve
 from .nonsmooth import MIN_INTERVAL, flag_nonsmooth, judged_smoothness, nonsmooth_splits
 from .schemes import Radau
@@ -368,5 +368,7 @@ def solve_to_tolerance(problem, tolerance, method=None, ipopt_options: dict | No
             parents = {_ends(a, b): float(ratio[min(np.searchsorted(mesh, (a + b) / 2, side="right") - 1, len(ratio) - 1)])
                        for a, b in zip(new.mesh_fractions[:-1], new.mesh_fractions[1:])}
         scheme, warm = new, companion
+    if not record["met"]:
+        record["message"] = record.get("message", "") + complementarity_advice(problem, tol, options)
     sol.mesh_refinement = record
     return sol
