@@ -200,3 +200,37 @@ def test_a_failed_static_optimisation_writes_its_last_iterate_and_exits_1(tmp_pa
     assert "error: IPOPT did not solve the muscle forces (status 'Maximum_Iterations_Exceeded')" in capsys.readouterr().err
     loads = np.genfromtxt(out / "loads.csv", delimiter=",", names=True, deletechars="")
     assert len(loads["t"]) == s["frames"] > 0
+
+
+def _grf_csv_without(path: Path, lo: float, hi: float) -> None:
+    """The JW ground reactions as a .csv (same column names), the samples strictly between ``lo`` and ``hi`` s left out."""
+    import scipy.io
+
+    mat = scipy.io.loadmat(str(GRF), squeeze_me=True, struct_as_record=False)
+    s = next(v for key, v in mat.items() if not key.startswith("__"))
+    data = np.asarray(s.data, float)
+    data = data[~((data[:, 0] > lo) & (data[:, 0] < hi))]
+    path.write_text(",".join(str(n) for n in s.colheaders) + "\n"
+                    + "".join(",".join(repr(float(v)) for v in row) + "\n" for row in data))
+
+
+def test_a_gap_in_the_records_outside_the_gait_cycle_leaves_the_cycles_loads_alone(tmp_path):
+    """Ground reactions missing for 0.2 s after the cycle (2.178-3.283 s): the knee ran the gap check over the whole
+    overlap of the files and refused the trial; now only the cycle it selects must be gap-free. The cycle's loads are
+    those of the complete record, and a gap inside the cycle is still refused naming the file and the window."""
+    from ocp_constraints.biomech.knee_pipeline import run_knee
+    from ocp_constraints.errors import GaitError
+
+    motion = tmp_path / "ik_30hz.csv"
+    _every_kth_frame_csv(motion, 4)
+    whole, after, inside = tmp_path / "grf.csv", tmp_path / "grf_gap_after.csv", tmp_path / "grf_gap_inside.csv"
+    _grf_csv_without(whole, 0.0, 0.0)
+    _grf_csv_without(after, 3.6, 3.8)
+    _grf_csv_without(inside, 2.6, 2.8)
+    ref = run_knee(JW_MODEL, motion, whole, method="static")["result"]
+    gapped = run_knee(JW_MODEL, motion, after, method="static")["result"]
+    np.testing.assert_array_equal(gapped.t, ref.t)
+    np.testing.assert_allclose(gapped.total, ref.total, rtol=0, atol=1e-9)
+    with pytest.raises(GaitError, match=r"grf_gap_inside\.csv: the ground-reaction record has a gap from 2\.599.* "
+                                        r"inside the window 2\.17"):
+        run_knee(JW_MODEL, motion, inside, method="static")
