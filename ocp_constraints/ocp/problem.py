@@ -145,7 +145,8 @@ class OptimalControlProblem:
         self.integral_terms.append(IntegralTerm(label, ca.SX(expression), _finite(weight, f"weight of the objective term '{label}'")))
 
     def minimize_effort(self, inputs: list[str] | None = None, weight: float = 1.0) -> None:
-        """``int sum tau_i^2 dt`` over the named inputs (default: all)."""
+        """Add ``weight * int sum tau_i^2 dt`` over the named inputs (default: all) to the objective; like every
+        ``minimize_*`` term it adds to what is there (a second call doubles the weight; ``integral_terms`` lists them)."""
         names = list(self.model.inputs) if inputs is None else ([inputs] if isinstance(inputs, str) else list(inputs))
         if not names:
             raise ModelError(f"model '{self.model.name}' has no inputs to minimize")
@@ -162,6 +163,8 @@ class OptimalControlProblem:
         self.minimize_integral(sum(wi * self.multiplier(c) ** 2 for c, wi in zip(constraints, w)), 1.0, "load_effort")
 
     def minimize_final_time(self, weight: float = 1.0) -> None:
+        """Add ``weight * T`` (s) to the objective; needs a free final time (``t_final_bounds``); adds like every
+        ``minimize_*`` term."""
         if self.t_final_bounds is None:
             raise ModelError("minimize_final_time needs a free final time (t_final_bounds)")
         self.time_weight += _finite(weight, "weight of the final time")
