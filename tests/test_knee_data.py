@@ -273,3 +273,17 @@ def test_missing_free_torque_columns_are_taken_as_zero_and_said(tmp_path):
                                rtol=0, atol=1e-9)
     assert any("cut.mot: plate1 has no free-torque column(s) torque_x, torque_y, torque_z: taken as zero" in w
                for w in r.warnings)
+
+
+def test_forces_sampled_slower_than_the_motion_are_said_to_be_interpolated(tmp_path, reference):
+    """Every 20th row of the 600 Hz force file (30 Hz against the motion's 60 Hz): it runs, and a note says the
+    forces are interpolated linearly between their samples (it ran without a word); the full file gets no such note."""
+    lines = GRF.read_text().splitlines()
+    end = next(k for k, line in enumerate(lines) if line.strip().lower() == "endheader")
+    rows = lines[end + 2:]
+    slow = tmp_path / "grf_30hz.mot"
+    slow.write_text("\n".join([line for line in lines[:end + 2] if not line.startswith("nRows")] + rows[::20]) + "\n")
+    r = run_inverse_dynamics(MODEL, IK, slow)
+    assert any("ground reactions are sampled at 30 Hz, slower than the motion's 60 Hz: they are interpolated "
+               "linearly" in n for n in r.settings["timing"]["notes"])
+    assert not any("slower than the motion" in n for n in reference.settings["timing"]["notes"])

@@ -44,7 +44,7 @@ from ..mechanics.equations import SystemEquations
 from .gait_feet import Leg, assign_plates, find_legs
 from .gait_model import JointInfo
 from ..errors import GaitError
-from .gait_signals import check_cutoff, filter_coordinates, motion_units
+from .gait_signals import check_cutoff, filter_coordinates, motion_units, sample_period
 from ..mechanics.fast_eval import evaluate
 from ..dynamics.result import MechanicalResult
 from ..mechanics.model import Model
@@ -217,6 +217,10 @@ def _window(motion: Table, grf: Table, start, end, times, check_gaps: bool = Tru
                             + ("first" if edge == "starts" else "last") + " value over it" if held else ""))
         elif (d <= -tol) == (edge == "starts") and abs(d) >= tol:     # motion samples outside the forces
             notes.append(f"the motion {edge} at {a:g} s, the ground reactions at {b:g} s: only their overlap is used")
+    f_grf, f_motion = 1.0 / sample_period(grf.time), 1.0 / sample_period(motion.time)
+    if f_grf < f_motion / 1.5:      # forces sampled slower than the motion: between their samples they are interpolated
+        notes.append(f"the ground reactions are sampled at {f_grf:.4g} Hz, slower than the motion's {f_motion:.4g} Hz: "
+                     f"they are interpolated linearly between their samples, and a force's peak can fall between them")
     info = {"motion_s": [m0, m1], "ground_reactions_s": [g0, g1], "used_s": [float(times.min()), float(times.max())],
             "samples": int(times.size), "tolerance_s": tol,
             "rule": "time stamps that differ by less than half a motion sample period are the same instant; "
