@@ -169,6 +169,11 @@ def _gap_check(table: Table, what: str, lo: float, hi: float) -> None:
                         f"({steps[i]:g} s, the sample period is {dt:g} s) inside the window {lo:g} ... {hi:g} s")
 
 
+def _gap_checks(motion: Table, grf: Table, lo: float, hi: float) -> None:
+    _gap_check(motion, "motion", lo, hi)
+    _gap_check(grf, "ground-reaction", lo, hi)
+
+
 def _window(motion: Table, grf: Table, start, end, times, check_gaps: bool = True) -> tuple[np.ndarray, dict]:
     """Sample times, and what was done about the files' time ranges (recorded in summary.json).
 
@@ -204,8 +209,7 @@ def _window(motion: Table, grf: Table, start, end, times, check_gaps: bool = Tru
         raise GaitError(f"time ranges do not match: {span} requested, but both files cover only "
                         f"{lo:g} ... {hi:g} s ({ranges})")
     if check_gaps:          # else checked on the window a caller selects (run_inverse_dynamics, select)
-        _gap_check(motion, "motion", float(times.min()), float(times.max()))
-        _gap_check(grf, "ground-reaction", float(times.min()), float(times.max()))
+        _gap_checks(motion, grf, float(times.min()), float(times.max()))
     notes = []
     for edge, a, b in (("starts", m0, g0), ("ends", m1, g1)):
         d = a - b
@@ -292,8 +296,7 @@ def run_inverse_dynamics(model_path, motion_path, grf_path, start: float | None 
             raise GaitError(f"the selected window {lo:g} ... {hi:g} s reaches past the time both files cover "
                             f"({t[0]:g} ... {t[-1]:g} s): the motion {motion_path} and the ground reactions "
                             f"{grf_path} must both cover it")
-        _gap_check(motion, "motion", float(lo), float(hi))
-        _gap_check(grf, "ground-reaction", float(lo), float(hi))
+        _gap_checks(motion, grf, float(lo), float(hi))
         t = t[(t >= lo - 1e-9) & (t <= hi + 1e-9)]
         if len(t) < 2:
             raise GaitError(f"{motion_path}: fewer than two motion samples in the selected window {lo:g} ... {hi:g} s")

@@ -44,10 +44,7 @@ def sample_period(t: np.ndarray) -> float:
 def motion_units(motion: Table) -> dict:
     """How the motion's angles were read (header, extension or range; see :func:`read_motion`)."""
     keys = ("angles_converted_from_degrees", "in_degrees_source", "angle_unit_note")
-    found = {k: motion.metadata[k] for k in keys if k in motion.metadata}
-    if "angles_converted_from_degrees" in found:        # kept as text among the header's entries; a flag here
-        found["angles_converted_from_degrees"] = found["angles_converted_from_degrees"] == "True"
-    return found
+    return {k: motion.metadata[k] for k in keys if k in motion.metadata}
 
 
 # -- 2. coordinates: OpenSim's filter and spline ------------------------------------------------
@@ -64,7 +61,7 @@ def _opensim_iir(y: np.ndarray, dt: float, fc: float) -> np.ndarray:
     transient it sets off decays like the largest pole's radius to the power of the samples:
     within the padding at 6 Hz (radius 0.74 on 60 Hz data), but not near the Nyquist frequency
     (radius 0.995 at 29.9 Hz), where it moved gait2354's hip flexion by 1.29 rad where the
-    filter, nearly a pass-through there, should move it by 3e-5 (``tests/test_gait_filter.py``)."""
+    filter, nearly a pass-through there, should move it by 3e-5 (``tests/test_gait_signals.py``)."""
     if not 0.0 < fc < 0.5 / dt:        # check_cutoff refuses these before; never clamp silently
         raise GaitError(f"cutoff {fc:g} Hz is not below the Nyquist frequency {0.5 / dt:.4g} Hz of the resampled motion")
     wa = np.tan(2 * np.pi * fc * dt / 2.0)

@@ -59,7 +59,7 @@ class Table:
     time: np.ndarray
     columns: dict[str, np.ndarray]
     units: dict[str, str] = field(default_factory=dict)
-    metadata: dict[str, str] = field(default_factory=dict)
+    metadata: dict[str, str | bool] = field(default_factory=dict)
 
     def __getitem__(self, name: str) -> np.ndarray:
         return self.column(name)
@@ -107,7 +107,8 @@ def _rows(lines: list[str], first_line: int, names: list[str], path, sep: str | 
 
 def _read_text(path: Path) -> list[str]:
     try:
-        return path.read_text(encoding="utf-8-sig", errors="replace").splitlines()   # -sig: a BOM (Excel's "CSV UTF-8") is not part of the first name
+        # utf-8-sig: a byte-order mark (Excel's "CSV UTF-8") is not part of the first column's name
+        return path.read_text(encoding="utf-8-sig", errors="replace").splitlines()
     except OSError as exc:
         raise DataFileError(path, f"cannot be read: {exc.strerror or exc}") from exc
 
@@ -274,7 +275,7 @@ def read_motion(path, in_degrees: bool | None = None, translational=None) -> Tab
             units[n] = "rad"
             if deg:
                 cols[n] = np.deg2rad(cols[n])
-    meta = dict(header, angles_converted_from_degrees=str(deg), in_degrees_source=why)
+    meta = dict(header, angles_converted_from_degrees=bool(deg), in_degrees_source=why)
     if note:
         meta["angle_unit_note"] = note
     return Table(str(p), t, cols, units, meta)

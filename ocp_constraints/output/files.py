@@ -41,8 +41,7 @@ def prepare_output_folder(out: str | Path) -> Path:
     """Create ``out`` (and parents); a clear error if it cannot be written."""
     path = Path(out)
     if path.exists() and not path.is_dir():
-        raise OcpConstraintsError(f"cannot write results to '{path}': it exists and is not a folder; give another "
-                                  "--out (a folder, new or earlier results)")
+        raise _not_a_folder(path)
     try:
         path.mkdir(parents=True, exist_ok=True)
         probe = tempfile.NamedTemporaryFile(dir=path, prefix=".write-test-", delete=True)
@@ -61,14 +60,18 @@ def check_output_folder(out: str | Path) -> None:
     while not existing.exists() and existing.parent != existing:
         existing = existing.parent
     if existing == path and path.exists() and not path.is_dir():
-        raise OcpConstraintsError(f"cannot write results to '{path}': it exists and is not a folder; give another "
-                                  "--out (a folder, new or earlier results)")
+        raise _not_a_folder(path)
     if not existing.is_dir():
         raise OcpConstraintsError(f"cannot write results to '{path}': '{existing}' is not a folder; give an --out "
                                   "folder you can write to")
     if not os.access(existing, os.W_OK | os.X_OK):
         raise OcpConstraintsError(f"cannot write results to '{path}': '{existing}' is not writable; give an --out "
                                   "folder you can write to")
+
+
+def _not_a_folder(path: Path) -> OcpConstraintsError:
+    return OcpConstraintsError(f"cannot write results to '{path}': it exists and is not a folder; give another "
+                               "--out (a folder, new or earlier results)")
 
 
 def current_umask() -> int:

@@ -61,9 +61,12 @@ class RunFolder:
         try:
             self.staging = Path(tempfile.mkdtemp(dir=self.path, prefix=f"{STAGING_PREFIX}{os.getpid()}-"))
         except OSError as exc:
-            raise OcpConstraintsError(f"cannot write results to '{self.path}': {exc.strerror or exc}") from exc
+            raise self._write_error(exc) from exc
         _ACTIVE.add(self.staging)
         return self.staging
+
+    def _write_error(self, exc: OSError) -> OcpConstraintsError:
+        return OcpConstraintsError(f"cannot write results to '{self.path}': {exc.strerror or exc}")
 
     def abort(self) -> None:
         """Drop the staged files; the folder keeps what it held."""
@@ -83,7 +86,7 @@ class RunFolder:
             yield staging
         except OSError as exc:
             self.abort()
-            raise OcpConstraintsError(f"cannot write results to '{self.path}': {exc.strerror or exc}") from exc
+            raise self._write_error(exc) from exc
         except BaseException:
             self.abort()
             raise
@@ -117,7 +120,7 @@ class RunFolder:
                 _write_manifest(self.path, new)
                 done = True
         except OSError as exc:
-            raise OcpConstraintsError(f"cannot write results to '{self.path}': {exc.strerror or exc}") from exc
+            raise self._write_error(exc) from exc
         except KeyboardInterrupt as exc:   # held during the commit, raised once the files were in place
             if done:
                 exc.written_to = str(self.path)
