@@ -402,12 +402,13 @@ def test_a_mesh_ipopt_cannot_solve_stops_the_refinement_with_the_last_estimated_
 
 
 
-def test_a_push_that_saturates_meets_1e_6_against_its_closed_form_with_the_advised_complementarity():
+def test_a_push_that_saturates_meets_1e_6_against_its_closed_form_with_the_refinements_own_complementarity():
     """A newcomer's block (2 kg on a rail, 1 m rest to rest in 1 s, min int F^2, |F| <= 10 N): the optimal push is
     F = sat(c (T/2 - t)), c from x(T) = 1 by bisection on a 200,001-point quadrature (independent of the library).
-    With IPOPT's own complementarity tolerance (1e-4) the interior point rounds the corners where F reaches its bound:
-    the refinement at 1e-6 ends "not met" (22 solves), and its message now says what to try. With that advice
-    (compl_inf_tol 1e-13): met, the states' true error inside [0.1, 1] of the estimate, the push within 1e-5 N."""
+    With IPOPT's own complementarity tolerance (1e-4) the interior point rounds the corners where F reaches its bound
+    and the refinement at 1e-6 ended "not met" (22 solves); under a tolerance below 1e-4 the refinement's warm solves
+    now ask IPOPT for (0.1 tol)^2 (mesh_solves.complementarity_tolerance), recorded in the history: met, the states'
+    true error inside [0.1, 1] of the estimate, the push within 1e-5 N. A user's own compl_inf_tol is kept."""
     import casadi as ca
     from scipy.optimize import brentq
 
@@ -431,13 +432,15 @@ def test_a_push_that_saturates_meets_1e_6_against_its_closed_form_with_the_advis
     v = np.concatenate([[0.0], np.cumsum((push[1:] + push[:-1]) / 2 * np.diff(tt))]) / m
     x = np.concatenate([[0.0], np.cumsum((v[1:] + v[:-1]) / 2 * np.diff(tt))])
 
-    default = ocp.solve(tolerance=1e-6).mesh_refinement
-    assert not default["met"] and "try ipopt_options={'ipopt.compl_inf_tol': 1e-13}" in default["message"]
-    sol = ocp.solve(tolerance=1e-6, ipopt_options={"ipopt.compl_inf_tol": 1e-13})
+    sol = ocp.solve(tolerance=1e-6)
     mr = sol.mesh_refinement
     assert mr["met"], mr["message"]
+    assert mr["complementarity_tolerance"] == pytest.approx(1e-14)
     grid = np.linspace(0.0, T, 2001)
     states = max(np.abs(sol.interpolate("block.x", grid) - np.interp(grid, tt, x)).max(),
                  np.abs(sol.interpolate("block.vbar_x", grid) - np.interp(grid, tt, v)).max())
     assert 0.1 * mr["estimate"]["states"] <= states <= mr["estimate"]["states"] <= 1e-6
     assert np.abs(sol.sample("F") - np.clip(c * (T / 2 - sol.t), -fmax, fmax)).max() <= 1e-5
+    assert "complementarity_tolerance" not in ocp.solve(tolerance=1e-6, ipopt_options={"ipopt.compl_inf_tol": 1e-13},
+                                                        max_refinements=0).mesh_refinement
+    assert "complementarity_tolerance" not in ocp.solve(tolerance=1e-4, max_refinements=0).mesh_refinement

@@ -140,20 +140,3 @@ def gave_up(record: dict, refinement: int, exc: OCPSolveError, previous) -> str:
             f"refinement {refinement - 1} ({scheme.intervals} intervals, {scheme.point_count} points) with its estimate "
             f"(states {est['states']:.1e}, multipliers {est['multipliers']:.1e}){above}; accept a larger tolerance, or "
             f"pass more IPOPT iterations ('ipopt.max_iter') to solve the next mesh")
-
-
-def complementarity_advice(problem, tol: float, options: dict) -> str:
-    """What to try when a tolerance below 1e-4 is not met on a problem with inequalities (input bounds, path
-    constraints) and IPOPT runs with its own complementarity tolerance (1e-4): an interior point rounds the corners
-    where an input reaches its bound, and with IPOPT's defaults that rounding shows below about 1e-5. A newcomer's
-    saturating push at 1e-6 was "not met" after 22 solves and met in 12 with ``ipopt.compl_inf_tol`` 1e-13 (also a
-    cart-pole with a bounded push). Not made the default: with (0.1 tol)^2 (1e-12 at 1e-5) the robustness rows took
-    1.03-6.9x the IPOPT iterations on some problems (the rolling-disk drive 128 -> 880, still not met) and fewer on
-    others (README, "Accuracy on request")."""
-    inputs = set(problem.model.inputs)
-    bounded = any(n in inputs and (lo > -float("inf") or hi < float("inf")) for n, (lo, hi) in problem.bounds.items())
-    if tol >= 1e-4 or "ipopt.compl_inf_tol" in options or not (bounded or problem.path_constraints):
-        return ""
-    return ("; where inputs reach their bounds or path constraints become active, IPOPT's default complementarity "
-            "tolerance rounds the corners: try ipopt_options={'ipopt.compl_inf_tol': 1e-13} (--ipopt "
-            "compl_inf_tol=1e-13)")

@@ -64,8 +64,9 @@ from .error_estimate import UNRESOLVED_OBJECTIVE, UNRESOLVED_STATE, estimate_err
 from .legendre_decay import DECAY_LIMIT, legendre_decay
 from .mesh_companions import (MAX_DEGREE, _degrees, _ends, as_fine, companion_of, finer, finer_at_hand,
                               pilot_of, pilot_pieces, reused_degree, split_pieces, uniform_step)
-from .mesh_progress import complementarity_advice, gave_up, interrupted, stall_message
-from .mesh_solves import iterations as _iterations, timed_solve as _timed_solve   # scripts log _timed_solve
+from .mesh_progress import gave_up, interrupted, stall_message
+from .mesh_solves import (COMPLEMENTARITY, complementarity_tolerance, iterations as _iterations,
+                          timed_solve as _timed_solve)   # scripts log _timed_solve
 from .nonsmooth import MIN_INTERVAL, flag_nonsmooth, judged_smoothness, nonsmooth_splits
 from .schemes import Radau
 from .switch_detection import detect_switches, jump_windows, split_points, touched
@@ -253,8 +254,11 @@ def solve_to_tolerance(problem, tolerance, method=None, ipopt_options: dict | No
                                      _timed_solve(problem, scheme, warm_options, warm, progress, first, fallback))
             if first is None:
                 first = sol.transcription
-                warm_options = {**WARM_IPOPT, "ipopt.max_iter": max(WARM_MIN_ITER, WARM_FACTOR * sol.iterations), **options}
-                fallback = {"ipopt.max_iter": max(FALLBACK_MIN_ITER, FALLBACK_FACTOR * sol.iterations), **options}
+                later = dict(options)    # the warm solves: IPOPT's complementarity held to the tolerance (mesh_solves)
+                if (compl := complementarity_tolerance(problem, tol, options, sol)) is not None:
+                    later[COMPLEMENTARITY] = record["complementarity_tolerance"] = compl
+                warm_options = {**WARM_IPOPT, "ipopt.max_iter": max(WARM_MIN_ITER, WARM_FACTOR * sol.iterations), **later}
+                fallback = {"ipopt.max_iter": max(FALLBACK_MIN_ITER, FALLBACK_FACTOR * sol.iterations), **later}
             entry.update(iterations=0 if solved is not None else _iterations(sol), time_s=t_sol, cpu_s=c_sol)
             judge = finer_at_hand(scheme, at_hand) if r > 0 else None
             if solved is None:
@@ -368,7 +372,5 @@ def solve_to_tolerance(problem, tolerance, method=None, ipopt_options: dict | No
             parents = {_ends(a, b): float(ratio[min(np.searchsorted(mesh, (a + b) / 2, side="right") - 1, len(ratio) - 1)])
                        for a, b in zip(new.mesh_fractions[:-1], new.mesh_fractions[1:])}
         scheme, warm = new, companion
-    if not record["met"]:
-        record["message"] = record.get("message", "") + complementarity_advice(problem, tol, options)
     sol.mesh_refinement = record
     return sol
