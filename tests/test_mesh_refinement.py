@@ -435,7 +435,7 @@ def test_a_push_that_saturates_meets_1e_6_against_its_closed_form_with_the_refin
     sol = ocp.solve(tolerance=1e-6)
     mr = sol.mesh_refinement
     assert mr["met"], mr["message"]
-    assert mr["complementarity_tolerance"] == pytest.approx(1e-14)
+    assert mr["complementarity_tolerance"] == 1e-14
     grid = np.linspace(0.0, T, 2001)
     states = max(np.abs(sol.interpolate("block.x", grid) - np.interp(grid, tt, x)).max(),
                  np.abs(sol.interpolate("block.vbar_x", grid) - np.interp(grid, tt, v)).max())

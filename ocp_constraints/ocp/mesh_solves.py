@@ -51,7 +51,7 @@ def complementarity_tolerance(problem, tol: float, options: dict, first) -> floa
         return None
     if not any(np.any(activity(values, lo, hi)[0]) for _, values, lo, hi, _, _ in bounded_quantities(first)):
         return None
-    return max((0.1 * tol) ** 2, 1e-14)
+    return max(float(f"{(0.1 * tol) ** 2:.12g}"), 1e-14)     # 1e-12 at 1e-5, not 1.0000000000000004e-12
 
 
 def has_inequalities(problem) -> bool:
