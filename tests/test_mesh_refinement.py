@@ -444,3 +444,44 @@ def test_a_push_that_saturates_meets_1e_6_against_its_closed_form_with_the_refin
     assert "complementarity_tolerance" not in ocp.solve(tolerance=1e-6, ipopt_options={"ipopt.compl_inf_tol": 1e-13},
                                                         max_refinements=0).mesh_refinement
     assert "complementarity_tolerance" not in ocp.solve(tolerance=1e-4, max_refinements=0).mesh_refinement
+
+
+def test_a_refinement_not_met_returns_its_lowest_estimate_and_says_so():
+    """The saturating push of the test above at 1e-6 with a user's own complementarity (IPOPT's 1e-4: the corners
+    rounded, "not met" after its refinements): the solution returned is the one whose largest gated estimate was the
+    lowest of the history, the record describes its mesh and estimate (the last mesh's findings kept apart) and the
+    message says which refinement it is; by hand (lowest_estimate), a met refinement, or one whose last solution is
+    its best, returns the last."""
+    import casadi as ca
+
+    import ocp_constraints as oc
+    from ocp_constraints.ocp.mesh_progress import lowest_estimate
+
+    model = oc.Model("block", gravity=(0.0, -9.81, 0.0))
+    block = model.add_body("block", 2.0, np.diag([0.1, 0.2, 0.3]), rotation="321")
+    oc.joints.prismatic(model, "rail", block.com, axis=(1.0, 0.0, 0.0))
+    model.add_force("push", block.com, ca.vertcat(model.add_input("F"), 0, 0))
+    ocp = oc.OptimalControlProblem(model, t_final=1.0)
+    ocp.initial({"block.x": 0.0, "block.vbar_x": 0.0})
+    ocp.final({"block.x": 1.0, "block.vbar_x": 0.0})
+    ocp.bound("F", -10.0, 10.0)
+    ocp.minimize_effort(["F"])
+    sol = ocp.solve(tolerance=1e-6, ipopt_options={"ipopt.compl_inf_tol": 1e-4})
+    mr = sol.mesh_refinement
+    assert not mr["met"]
+    largest = [max(h["estimate"][q] for q in ("states", "multipliers")) for h in mr["history"] if "estimate" in h]
+    k = mr.get("returned_refinement", mr["refinements"])
+    assert max(mr["estimate"][q] for q in ("states", "multipliers")) == min(largest)
+    assert mr["history"][k]["mesh"] == mr["mesh"] and sol.transcription.scheme.intervals == len(mr["degrees"])
+    if k != mr["refinements"]:
+        assert f"returned: the solution of refinement {k}" in mr["message"]
+
+    last, earlier = object(), object()
+    described = {"refinements": 5, "mesh": [0.0, 0.5, 1.0], "degrees": [7, 7],
+                 "estimate": {"states": 1.7e-6, "multipliers": 3.5e-4}, "worst": {"states": "x"}}
+    scores = {id(last): 1.4e-3, id(earlier): 3.5e-4}
+    record = {"met": True, "message": "", "estimate": {"states": 1.2e-6, "multipliers": 9e-5}}
+    assert lowest_estimate(record, last, scores, (3.5e-4, earlier, described, None, ()), 1e-4) is last
+    record["met"] = False
+    assert lowest_estimate(record, last, {id(last): 1e-4}, (3.5e-4, earlier, described, None, ()), 1e-4) is last
+    assert lowest_estimate(record, last, scores, (1.4e-3, last, described, None, ()), 1e-4) is last

@@ -22,6 +22,7 @@ and then meet the tolerance.
 from __future__ import annotations
 
 from ..errors import OCPSolveError
+from .nonsmooth import flag_nonsmooth
 
 STALL_GROWTH = 1.5      # a refinement that multiplied the points by at least this is judged by the rule
 
@@ -140,3 +141,28 @@ def gave_up(record: dict, refinement: int, exc: OCPSolveError, previous) -> str:
             f"refinement {refinement - 1} ({scheme.intervals} intervals, {scheme.point_count} points) with its estimate "
             f"(states {est['states']:.1e}, multipliers {est['multipliers']:.1e}){above}; accept a larger tolerance, or "
             f"pass more IPOPT iterations ('ipopt.max_iter') to solve the next mesh")
+
+
+def lowest_estimate(record: dict, last, scores: dict, best: tuple, tol: float):
+    """The solution to return from a refinement that ends "not met": ``last`` (the last solution whose error was
+    estimated), or, where an earlier one had a lower estimate (``best``: its largest gated estimate, the solution,
+    its mesh and estimate, its smoothness and jump windows), that one, with ``record`` made to describe it (its
+    jump windows and untrusted intervals, :func:`.nonsmooth.flag_nonsmooth`; the last mesh's under ``last_mesh``)
+    and its message saying so. A refinement that stalls or runs out of refinements often ends on a mesh whose
+    estimate has risen (a newcomer's rod at 1e-4: 3.5e-4 on its best mesh, 1.4e-3 on its last), and the user asked
+    for the smallest error. ``met``: ``last``."""
+    score, sol, described, smoothness, windows = best
+    if record["met"] or sol is None or sol is last or not score < scores.get(id(last), float("inf")):
+        return last
+    was = record["estimate"]
+    for key in ("jump_windows", "nonsmooth_intervals", "rough_intervals"):    # found on the last mesh, not this one
+        if key in record:
+            record.setdefault("last_mesh", {})[key] = record.pop(key)
+    record.update({k: v for k, v in described.items() if k != "refinements"})    # "refinements": how many were made
+    record["returned_refinement"] = described["refinements"]
+    record["message"] = (record.get("message", "") + f"; returned: the solution of refinement {described['refinements']} "
+                         f"({len(described['degrees'])} intervals), the lowest estimate seen (states "
+                         f"{described['estimate']['states']:.1e}, multipliers {described['estimate']['multipliers']:.1e}; "
+                         f"the last mesh's: {was['states']:.1e}, {was['multipliers']:.1e})")
+    flag_nonsmooth(sol, tol, record, smoothness, windows)
+    return sol

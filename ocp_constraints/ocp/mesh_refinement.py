@@ -10,7 +10,9 @@
    the corners there by more than such a tolerance);
 2. judge it against a *companion*: a solution at hand that is finer everywhere, if there is one
    (:func:`.mesh_companions.finer`: each interval halved at a degree at least its own, or kept at two
-   degrees more; no solve), else the same mesh with every degree raised by two, solved warm from 1
+   degrees more; no solve; none where a junction lies inside an interval), else the same mesh with every degree
+   raised by two and the intervals holding a located junction halved (:func:`.mesh_companions.companion_of`),
+   solved warm from 1
    (on the first mesh: the *pilot*, every interval halved at :data:`MAX_DEGREE`, or cut finer where the
    first solution's own Legendre coefficients predict that a halving will not do, :func:`pilot_of`,
    :func:`.mesh_companions.pilot_pieces`);
@@ -45,13 +47,14 @@
    (:func:`.nonsmooth.nonsmooth_splits`); on the last refinement such intervals withdraw "met" and are named
    (:func:`.nonsmooth.flag_nonsmooth`): there the companion is no upper bound;
 6. stop ("met" not claimed) when more points no longer pay: a second stall, one with no progress, or a run of small
-   steps that never lowered the estimate (:mod:`.mesh_progress`).
+   steps that never lowered the estimate (:mod:`.mesh_progress`); a refinement that ends "not met" returns the
+   solution with the lowest estimate it saw (:func:`.mesh_progress.lowest_estimate`), not always its last.
 
 Every mesh is transcribed in the problem's own coordinates (joint coordinates under the default
 ``coordinates="auto"`` where they apply); the estimate reads states and multipliers by name.
 
 The solution returned is step 1's on the last mesh (its error is what the estimate
-estimates); ``sol.mesh_refinement`` holds the final mesh and degrees, the estimate per
+estimates; "not met": on the mesh of the lowest estimate, ``returned_refinement``); ``sol.mesh_refinement`` holds the final mesh and degrees, the estimate per
 quantity, and the history (mesh, solves, IPOPT iterations and times of each refinement, the
 companion it was judged against, the switches located).
 """
@@ -67,7 +70,7 @@ from .error_estimate import UNRESOLVED_OBJECTIVE, UNRESOLVED_STATE, estimate_err
 from .legendre_decay import DECAY_LIMIT, legendre_decay
 from .mesh_companions import (MAX_DEGREE, _degrees, _ends, as_fine, companion_of, finer, finer_at_hand,
                               pilot_of, pilot_pieces, reused_degree, split_pieces, uniform_step)
-from .mesh_progress import gave_up, interrupted, stall_message
+from .mesh_progress import gave_up, interrupted, lowest_estimate, stall_message
 from .mesh_solves import (COMPLEMENTARITY, complementarity_tolerance, iterations as _iterations,
                           timed_solve as _timed_solve)   # scripts log _timed_solve
 from .nonsmooth import MIN_INTERVAL, flag_nonsmooth, judged_smoothness, nonsmooth_splits
@@ -242,6 +245,7 @@ def solve_to_tolerance(problem, tolerance, method=None, ipopt_options: dict | No
     # Solutions solved lately: a finer one may judge a later mesh (:func:`finer`). Meshes grow, so a finer
     # one is among the last few; the older ones (each with its NLP and IPOPT instance) are let go.
     at_hand: list = []
+    scores, best = {}, (np.inf, None, None, None, ())   # each estimated solution's largest gated estimate; the lowest
     warm_options = {**WARM_IPOPT, **options}    # capped once the first mesh's cold solve has said how hard it is
     fallback, previous = options, None          # previous: the last solution whose error was estimated
     for r in range(max_refinements + 1):
@@ -263,7 +267,9 @@ def solve_to_tolerance(problem, tolerance, method=None, ipopt_options: dict | No
                 warm_options = {**WARM_IPOPT, "ipopt.max_iter": max(WARM_MIN_ITER, WARM_FACTOR * sol.iterations), **later}
                 fallback = {"ipopt.max_iter": max(FALLBACK_MIN_ITER, FALLBACK_FACTOR * sol.iterations), **later}
             entry.update(iterations=0 if solved is not None else _iterations(sol), time_s=t_sol, cpu_s=c_sol)
-            judge = finer_at_hand(scheme, at_hand) if r > 0 else None
+            found = detect_switches(sol)        # bounds switching: jumps left out of the multipliers' estimate
+            kinked = {w.interval for w in found if w.kind == "junction" and w.inside}
+            judge = finer_at_hand(scheme, at_hand) if r > 0 and not kinked else None
             if solved is None:
                 at_hand.append(sol)
             if judge is not None:   # a solution at hand is finer everywhere: it is the companion, no solve
@@ -272,7 +278,7 @@ def solve_to_tolerance(problem, tolerance, method=None, ipopt_options: dict | No
                                            "points": judge.transcription.scheme.point_count}
             else:
                 companion, t_comp, c_comp = _timed_solve(problem, pilot_of(scheme, pilot_pieces(sol, tol)) if r == 0
-                                                         else companion_of(scheme),
+                                                         else companion_of(scheme, kinked),
                                                          warm_options, sol, progress, first, fallback)
                 at_hand.append(companion)
             del at_hand[:-AT_HAND]
@@ -290,7 +296,6 @@ def solve_to_tolerance(problem, tolerance, method=None, ipopt_options: dict | No
             raise interrupted(record, r, sol) from None
         total += t_sol + t_comp
         total_cpu += c_sol + c_comp
-        found = detect_switches(sol)        # bounds switching: jumps left out of the multipliers' estimate
         windows = jump_windows(found + detect_switches(companion), scheme.mesh_fractions)
         est = estimate_error(sol, companion, windows=windows, switches=found)
         if judge is None:
@@ -302,6 +307,7 @@ def solve_to_tolerance(problem, tolerance, method=None, ipopt_options: dict | No
             entry["warm_retries"] = retried
         entry.update(**est.as_dict())
         previous = sol
+        scores[id(sol)] = max(est.totals[q] for q in GATED) if est.resolved else np.inf
         ratio = est.refinement_ratio(tol, GATED)      # where the error is made (ErrorEstimate.refinement_ratio)
         record.update(mesh=entry["mesh"], degrees=entry["degrees"], estimate=entry["estimate"], worst=entry["worst"],
                       total_time_s=total, total_cpu_s=total_cpu, refinements=r)
@@ -321,6 +327,9 @@ def solve_to_tolerance(problem, tolerance, method=None, ipopt_options: dict | No
         # Switches inside intervals (switch_detection): there the estimate is no bound; split at them.
         met = all(est.totals[q] <= tol for q in GATED)
         smoothness = judged_smoothness(legendre_decay(sol), found)   # per interval, read three times below
+        if scores[id(sol)] < best[0]:
+            best = (scores[id(sol)], sol, dict(refinements=r, **{k: entry[k] for k in ("mesh", "degrees", "estimate", "worst")}),
+                    smoothness, windows)
         switches = split_points(found, scheme.mesh_fractions, MIN_INTERVAL, tol, ratio) or (
             nonsmooth_splits(sol, tol, smoothness, windows) if met and r < max_refinements else {})
         entry["switches"] = [f for k in sorted(switches) for f in switches[k]]
@@ -375,5 +384,6 @@ def solve_to_tolerance(problem, tolerance, method=None, ipopt_options: dict | No
             parents = {_ends(a, b): float(ratio[min(np.searchsorted(mesh, (a + b) / 2, side="right") - 1, len(ratio) - 1)])
                        for a, b in zip(new.mesh_fractions[:-1], new.mesh_fractions[1:])}
         scheme, warm = new, companion
+    sol = lowest_estimate(record, sol, scores, best, tol)    # "not met": the refinement's best solution, not its last
     sol.mesh_refinement = record
     return sol
