@@ -73,6 +73,14 @@ def test_bad_tolerance_is_refused_with_its_value():
             problem.solve(tolerance=bad)
 
 
+def test_ipopt_tolerances_looser_than_the_tolerance_are_refused_by_name():
+    _, problem = build_task("pendulum", "swing_up")
+    with pytest.raises(ModelError, match="'ipopt.tol' 0.0001 is looser than the tolerance 1e-06"):
+        problem.solve(tolerance=1e-6, ipopt_options={"ipopt.tol": 1e-4})
+    with pytest.raises(ModelError, match="'ipopt.constr_viol_tol' 0.001 is looser"):
+        problem.solve(tolerance=1e-4, ipopt_options={"ipopt.constr_viol_tol": 1e-3})
+
+
 def test_tolerance_needs_a_radau_start_and_the_cli_checks_it(capsys):
     _, problem = build_task("pendulum", "swing_up")
     with pytest.raises(ModelError, match="Radau"):

@@ -71,8 +71,8 @@ from .legendre_decay import DECAY_LIMIT, legendre_decay
 from .mesh_companions import (MAX_DEGREE, _degrees, _ends, as_fine, companion_of, finer, finer_at_hand,
                               pilot_of, pilot_pieces, reused_degree, split_pieces, uniform_step)
 from .mesh_progress import gave_up, interrupted, lowest_estimate, stall_message
-from .mesh_solves import (COMPLEMENTARITY, complementarity_tolerance, iterations as _iterations,
-                          timed_solve as _timed_solve)   # scripts log _timed_solve
+from .mesh_solves import (COMPLEMENTARITY, check_solver_tolerances, complementarity_tolerance,
+                          iterations as _iterations, timed_solve as _timed_solve)   # scripts log _timed_solve
 from .nonsmooth import MIN_INTERVAL, flag_nonsmooth, judged_smoothness, nonsmooth_splits
 from .schemes import Radau
 from .switch_detection import detect_switches, jump_windows, split_points, touched
@@ -238,6 +238,7 @@ def solve_to_tolerance(problem, tolerance, method=None, ipopt_options: dict | No
     tol = check_tolerance(tolerance)
     scheme = start_scheme(method)
     options = dict(ipopt_options or {})
+    check_solver_tolerances(options, tol)
     history: list[dict] = []
     record = {"tolerance": tol, "quantities_refined_on": list(GATED), "met": False, "history": history,
               "coordinates": problem.nlp_coordinates}

@@ -23,7 +23,7 @@ import time
 
 import numpy as np
 
-from ..errors import OCPSolveError
+from ..errors import ModelError, OCPSolveError
 from .error_estimate import UNRESOLVED_OBJECTIVE
 from .schemes import Radau
 from .switch_detection import activity, bounded_quantities
@@ -52,6 +52,19 @@ def complementarity_tolerance(problem, tol: float, options: dict, first) -> floa
     if not any(np.any(activity(values, lo, hi)[0]) for _, values, lo, hi, _, _ in bounded_quantities(first)):
         return None
     return max(float(f"{(0.1 * tol) ** 2:.12g}"), 1e-14)     # 1e-12 at 1e-5, not 1.0000000000000004e-12
+
+
+def check_solver_tolerances(options: dict, tol: float) -> None:
+    """Refuse IPOPT tolerances looser than the refinement's own ``tol`` (a :class:`ModelError` naming the option):
+    each solve would stop that far from its optimum, and the difference of two solves, the estimate, would measure
+    IPOPT rather than the mesh (a newcomer's ``ipopt.tol`` 1e-4 under ``tolerance=1e-6`` ran without a word)."""
+    for name in ("ipopt.tol", "ipopt.constr_viol_tol"):
+        value = options.get(name)
+        if isinstance(value, (int, float)) and not isinstance(value, bool) and value > tol:
+            raise ModelError(f"'{name}' {value:g} is looser than the tolerance {tol:g} asked of the mesh: each solve would "
+                             f"stop that far from its optimum and the error estimate (two solves compared) would measure "
+                             f"IPOPT, not the mesh; leave '{name}' at its default (1e-10) or at most {tol:g}, or ask a "
+                             f"tolerance of at least {value:g}")
 
 
 def has_inequalities(problem) -> bool:
