@@ -227,7 +227,7 @@ def solve_to_tolerance(problem, tolerance, method=None, ipopt_options: dict | No
         The starting mesh (a :class:`Radau`); default 10 intervals of degree 5.
     max_refinements
         Refinements after the first solve; if the estimate is still above the tolerance then, the
-        last solution is returned with ``mesh_refinement["met"]`` False and the reason.
+        solution with the lowest estimate is returned with ``mesh_refinement["met"]`` False and the reason.
 
     Returns the :class:`~ocp_constraints.ocp.solution.OCPSolution` on the last mesh, with ``mesh_refinement`` filled
     in (see the module's notes). A mesh IPOPT does not solve (its warm attempt and the retry with IPOPT's own options,
