@@ -11,7 +11,7 @@ problems, the examples' OCPs, the satellite), built by its own builders (importe
 default coordinates and from its default guess; none was written or tuned for the refinement. Each run is
 ``problem.solve(tolerance=TOL, progress=False)`` in its own ``python`` subprocess (``--one``) under a
 wall-clock cap: a run over the cap is killed and reported as such. Per run: met, the message's first 150
-characters, refinements, solves, final intervals and points, the estimate of each gated quantity (states,
+characters, refinements, solves, the returned solution's intervals and points, the estimate of each gated quantity (states,
 multipliers; inputs and final time shown too), an IPOPT failure (``OCPSolveError``'s text), any other
 exception (a library error with its message, or a bug: a raw exception's type, text and the frame it
 came from), CPU (``time.process_time`` of build + solve inside the child; and the child's whole CPU from
@@ -110,7 +110,10 @@ def one(name: str, tol: float) -> dict:
     row.update(cpu_s=time.process_time() - cpu, wall_s=time.perf_counter() - wall)
     if record:
         history = record.get("history", [])
-        last = history[-1] if history else {}
+        # The mesh of the solution returned: the last estimated (a mesh IPOPT then failed on comes after it in the
+        # history), or an earlier one with a lower estimate (returned_refinement).
+        returned = record.get("returned_refinement", record.get("refinements"))
+        last = history[returned] if returned is not None and returned < len(history) else (history[-1] if history else {})
         est = record.get("estimate") or last.get("estimate") or {}
         row.update(met=bool(record.get("met")), message=str(record.get("message", ""))[:150],
                    refinements=record.get("refinements", len(history) - 1),
