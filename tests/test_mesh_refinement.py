@@ -487,9 +487,8 @@ def test_a_refinement_not_met_returns_its_lowest_estimate_and_says_so():
     last, earlier = object(), object()
     described = {"refinements": 5, "mesh": [0.0, 0.5, 1.0], "degrees": [7, 7],
                  "estimate": {"states": 1.7e-6, "multipliers": 3.5e-4}, "worst": {"states": "x"}}
-    scores = {id(last): 1.4e-3, id(earlier): 3.5e-4}
     record = {"met": True, "message": "", "estimate": {"states": 1.2e-6, "multipliers": 9e-5}}
-    assert lowest_estimate(record, last, scores, (3.5e-4, earlier, described, None, ()), 1e-4) is last
+    assert lowest_estimate(record, last, 1.4e-3, (3.5e-4, earlier, described, None, ()), 1e-4) is last
     record["met"] = False
-    assert lowest_estimate(record, last, {id(last): 1e-4}, (3.5e-4, earlier, described, None, ()), 1e-4) is last
-    assert lowest_estimate(record, last, scores, (1.4e-3, last, described, None, ()), 1e-4) is last
+    assert lowest_estimate(record, last, 1e-4, (3.5e-4, earlier, described, None, ()), 1e-4) is last
+    assert lowest_estimate(record, last, 1.4e-3, (1.4e-3, last, described, None, ()), 1e-4) is last

@@ -153,16 +153,16 @@ def gave_up(record: dict, refinement: int, exc: OCPSolveError, previous) -> str:
             f"pass more IPOPT iterations ('ipopt.max_iter') to solve the next mesh")
 
 
-def lowest_estimate(record: dict, last, scores: dict, best: tuple, tol: float):
+def lowest_estimate(record: dict, last, last_score: float, best: tuple, tol: float):
     """The solution to return from a refinement that ends "not met": ``last`` (the last solution whose error was
-    estimated), or, where an earlier one had a lower estimate (``best``: its largest gated estimate, the solution,
+    estimated, its largest gated estimate ``last_score``), or, where an earlier one had a lower estimate (``best``: its largest gated estimate, the solution,
     its mesh and estimate, its smoothness and jump windows), that one, with ``record`` made to describe it (its
     jump windows and untrusted intervals, :func:`.nonsmooth.flag_nonsmooth`; the last mesh's under ``last_mesh``)
     and its message saying so. A refinement that stalls or runs out of refinements often ends on a mesh whose
     estimate has risen (a newcomer's rod at 1e-4: 3.5e-4 on its best mesh, 1.4e-3 on its last), and the user asked
     for the smallest error. ``met``: ``last``."""
     score, sol, described, smoothness, windows = best
-    if record["met"] or sol is None or sol is last or not score < scores.get(id(last), float("inf")):
+    if record["met"] or sol is None or sol is last or not score < last_score:
         return last
     was = record["estimate"]
     for key in ("jump_windows", "nonsmooth_intervals", "rough_intervals"):    # found on the last mesh, not this one

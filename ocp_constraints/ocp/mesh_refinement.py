@@ -246,7 +246,7 @@ def solve_to_tolerance(problem, tolerance, method=None, ipopt_options: dict | No
     # Solutions solved lately: a finer one may judge a later mesh (:func:`finer`). Meshes grow, so a finer
     # one is among the last few; the older ones (each with its NLP and IPOPT instance) are let go.
     at_hand: list = []
-    scores, best = {}, (np.inf, None, None, None, ())   # each estimated solution's largest gated estimate; the lowest
+    score, best = np.inf, (np.inf, None, None, None, ())   # the last estimated solution's largest gated estimate; the lowest
     warm_options = {**WARM_IPOPT, **options}    # capped once the first mesh's cold solve has said how hard it is
     fallback, previous = options, None          # previous: the last solution whose error was estimated
     for r in range(max_refinements + 1):
@@ -263,7 +263,7 @@ def solve_to_tolerance(problem, tolerance, method=None, ipopt_options: dict | No
             if first is None:
                 first = sol.transcription
                 later = dict(options)    # the warm solves: IPOPT's complementarity held to the tolerance (mesh_solves)
-                if (compl := complementarity_tolerance(problem, tol, options, sol)) is not None:
+                if (compl := complementarity_tolerance(tol, options, sol)) is not None:
                     later[COMPLEMENTARITY] = record["complementarity_tolerance"] = compl
                 warm_options = {**WARM_IPOPT, "ipopt.max_iter": max(WARM_MIN_ITER, WARM_FACTOR * sol.iterations), **later}
                 fallback = {"ipopt.max_iter": max(FALLBACK_MIN_ITER, FALLBACK_FACTOR * sol.iterations), **later}
@@ -308,7 +308,7 @@ def solve_to_tolerance(problem, tolerance, method=None, ipopt_options: dict | No
             entry["warm_retries"] = retried
         entry.update(**est.as_dict())
         previous = sol
-        scores[id(sol)] = max(est.totals[q] for q in GATED) if est.resolved else np.inf
+        score = max(est.totals[q] for q in GATED) if est.resolved else np.inf
         ratio = est.refinement_ratio(tol, GATED)      # where the error is made (ErrorEstimate.refinement_ratio)
         record.update(mesh=entry["mesh"], degrees=entry["degrees"], estimate=entry["estimate"], worst=entry["worst"],
                       total_time_s=total, total_cpu_s=total_cpu, refinements=r)
@@ -328,8 +328,8 @@ def solve_to_tolerance(problem, tolerance, method=None, ipopt_options: dict | No
         # Switches inside intervals (switch_detection): there the estimate is no bound; split at them.
         met = all(est.totals[q] <= tol for q in GATED)
         smoothness = judged_smoothness(legendre_decay(sol), found)   # per interval, read three times below
-        if scores[id(sol)] < best[0]:
-            best = (scores[id(sol)], sol, dict(refinements=r, **{k: entry[k] for k in ("mesh", "degrees", "estimate", "worst")}),
+        if score < best[0]:
+            best = (score, sol, dict(refinements=r, **{k: entry[k] for k in ("mesh", "degrees", "estimate", "worst")}),
                     smoothness, windows)
         switches = split_points(found, scheme.mesh_fractions, MIN_INTERVAL, tol, ratio) or (
             nonsmooth_splits(sol, tol, smoothness, windows) if met and r < max_refinements else {})
@@ -385,6 +385,6 @@ def solve_to_tolerance(problem, tolerance, method=None, ipopt_options: dict | No
             parents = {_ends(a, b): float(ratio[min(np.searchsorted(mesh, (a + b) / 2, side="right") - 1, len(ratio) - 1)])
                        for a, b in zip(new.mesh_fractions[:-1], new.mesh_fractions[1:])}
         scheme, warm = new, companion
-    sol = lowest_estimate(record, sol, scores, best, tol)    # "not met": the refinement's best solution, not its last
+    sol = lowest_estimate(record, sol, score, best, tol)    # "not met": the refinement's best solution, not its last
     sol.mesh_refinement = record
     return sol

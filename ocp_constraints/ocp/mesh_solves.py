@@ -32,7 +32,7 @@ ACCEPTABLE = "Solved_To_Acceptable_Level"
 COMPLEMENTARITY = "ipopt.compl_inf_tol"
 
 
-def complementarity_tolerance(problem, tol: float, options: dict, first) -> float | None:
+def complementarity_tolerance(tol: float, options: dict, first) -> float | None:
     """IPOPT's complementarity tolerance for the warm solves of a refinement to ``tol``: ``(0.1 tol)^2``, at
     least 1e-14, where ``tol`` is below 1e-4, the user set none, and an inequality (a bound on an input or a state,
     a path constraint) is active somewhere on ``first``, the first mesh's solution
@@ -47,7 +47,7 @@ def complementarity_tolerance(problem, tol: float, options: dict, first) -> floa
     Only where a bound is reached: the swing-up's motor bound is never, and the tighter tolerance cost its
     companions an IPOPT iteration each. The first mesh's cold solve keeps IPOPT's own (its error is far above
     such a tolerance)."""
-    if tol >= 1e-4 or COMPLEMENTARITY in options or not has_inequalities(problem):
+    if tol >= 1e-4 or COMPLEMENTARITY in options:
         return None
     if not any(np.any(activity(values, lo, hi)[0]) for _, values, lo, hi, _, _ in bounded_quantities(first)):
         return None
@@ -65,12 +65,6 @@ def check_solver_tolerances(options: dict, tol: float) -> None:
                              f"stop that far from its optimum and the error estimate (two solves compared) would measure "
                              f"IPOPT, not the mesh; leave '{name}' at its default (1e-10) or at most {tol:g}, or ask a "
                              f"tolerance of at least {value:g}")
-
-
-def has_inequalities(problem) -> bool:
-    """Whether IPOPT holds any inequality of ``problem`` by its barrier: a finite bound or a path constraint."""
-    return bool(problem.path_constraints) or any(lo > -float("inf") or hi < float("inf")
-                                                 for lo, hi in problem.bounds.values())
 
 
 def build_mesh(problem, scheme: Radau, first):
