@@ -186,11 +186,12 @@ def test_failed_simulation_writes_partial_results_marked_unsuccessful(tmp_path):
 
 
 def test_solve_hands_ipopt_options_to_every_solve_and_records_them(tmp_path, capsys):
-    """--ipopt NAME=VALUE reaches IPOPT (two iterations allowed: it stops there, exit 1, the status named) and
-    summary.json records it as the option given (an integer stays an integer)."""
+    """--ipopt NAME=VALUE reaches IPOPT (two iterations allowed: it stops there, exit 1, the status named with
+    the option that set the limit) and summary.json records it as the option given (an integer stays an integer)."""
     code = main(["solve", "pendulum", "--intervals", "10", "--ipopt", "max_iter=2", "--out", str(tmp_path), "--no-plots"])
     assert code == 1
-    assert "Maximum_Iterations_Exceeded" in capsys.readouterr().err
+    err = capsys.readouterr().err
+    assert "Maximum_Iterations_Exceeded" in err and "'ipopt.max_iter' = 2" in err
     summary = json.loads((tmp_path / "summary.json").read_text())
     assert summary["solver"]["ipopt_options"] == {"ipopt.max_iter": 2} and summary["iterations"] == 2
     assert summary["success"] is False

@@ -264,10 +264,25 @@ class Transcription(ElementKinds):
             raise OCPSolveError(
                 f"IPOPT did not solve '{self.problem.model.name}' with {self.scheme.label} "
                 f"(N = {self.scheme.intervals}): status '{stats.get('return_status')}' after "
-                f"{stats.get('iter_count')} iterations; the last iterate is kept in .solution",
+                f"{stats.get('iter_count')} iterations{_limit_advice(stats.get('return_status'), opts)}; "
+                f"the last iterate is kept in .solution",
                 solution,
             )
         return solution
+
+
+# IPOPT's statuses that mean a limit was reached, not a failure of the problem: the option that set the limit.
+LIMITS = {"Maximum_Iterations_Exceeded": "ipopt.max_iter", "Maximum_CpuTime_Exceeded": "ipopt.max_cpu_time",
+          "Maximum_WallTime_Exceeded": "ipopt.max_wall_time"}
+
+
+def _limit_advice(status, opts: dict) -> str:
+    """For a status that says a limit was reached: the option that set it, and its value in this solve."""
+    name = LIMITS.get(status)
+    if name is None:
+        return ""
+    value = opts.get(name, "IPOPT's default")
+    return f" (the limit '{name}' = {value}: raise it, or start closer to the optimum)"
 
 
 def _refused_options(said: str, ipopt_options: dict) -> ModelError | None:
