@@ -7,7 +7,8 @@
    :data:`FALLBACK_FACTOR`; a mesh neither solves ends the refinement with the last estimated solution); below a
    tolerance of 1e-4, where the first solution reaches a bound or a path constraint, the warm solves hold IPOPT's
    complementarity to ``(0.1 tol)^2`` (:func:`.mesh_solves.complementarity_tolerance`: IPOPT's own 1e-4 rounds
-   the corners there by more than such a tolerance);
+   the corners there by more than such a tolerance), and the first mesh is solved again so, warm from its cold
+   solution (:func:`.mesh_solves.tightened`);
 2. judge it against a *companion*: a solution at hand that is finer everywhere, if there is one
    (:func:`.mesh_companions.finer`: each interval halved at a degree at least its own, or kept at two
    degrees more; no solve; none where a junction lies inside an interval), else the same mesh with every degree
@@ -71,8 +72,8 @@ from .legendre_decay import DECAY_LIMIT, legendre_decay
 from .mesh_companions import (MAX_DEGREE, _degrees, _ends, as_fine, companion_of, finer, finer_at_hand,
                               pilot_of, pilot_pieces, reused_degree, split_pieces, uniform_step)
 from .mesh_progress import gave_up, interrupted, lowest_estimate, stall_message
-from .mesh_solves import (COMPLEMENTARITY, check_solver_tolerances, complementarity_tolerance,
-                          iterations as _iterations, timed_solve as _timed_solve)   # scripts log _timed_solve
+from .mesh_solves import (COMPLEMENTARITY, check_solver_tolerances, complementarity_tolerance, solver_floor,
+                          tightened, iterations as _iterations, timed_solve as _timed_solve)   # scripts log _timed_solve
 from .nonsmooth import MIN_INTERVAL, flag_nonsmooth, judged_smoothness, nonsmooth_splits
 from .schemes import Radau
 from .switch_detection import detect_switches, jump_windows, split_points, touched
@@ -267,6 +268,9 @@ def solve_to_tolerance(problem, tolerance, method=None, ipopt_options: dict | No
                     later[COMPLEMENTARITY] = record["complementarity_tolerance"] = compl
                 warm_options = {**WARM_IPOPT, "ipopt.max_iter": max(WARM_MIN_ITER, WARM_FACTOR * sol.iterations), **later}
                 fallback = {"ipopt.max_iter": max(FALLBACK_MIN_ITER, FALLBACK_FACTOR * sol.iterations), **later}
+                if compl is not None:       # the first mesh too, under the tightened complementarity (mesh_solves)
+                    sol, t_more, c_more = tightened(sol, warm_options, progress)
+                    t_sol, c_sol = t_sol + t_more, c_sol + c_more
             entry.update(iterations=0 if solved is not None else _iterations(sol), time_s=t_sol, cpu_s=c_sol)
             found = detect_switches(sol)        # bounds switching: jumps left out of the multipliers' estimate
             kinked = {w.interval for w in found if w.kind == "junction" and w.inside}
@@ -298,7 +302,7 @@ def solve_to_tolerance(problem, tolerance, method=None, ipopt_options: dict | No
         total += t_sol + t_comp
         total_cpu += c_sol + c_comp
         windows = jump_windows(found + detect_switches(companion), scheme.mesh_fractions)
-        est = estimate_error(sol, companion, windows=windows, switches=found)
+        est = estimate_error(sol, companion, windows=windows, switches=found, floor=solver_floor(options))
         if judge is None:
             entry.update(companion_iterations=_iterations(companion), companion_time_s=t_comp, companion_cpu_s=c_comp)
         retried = [dict(x.warm_retry, of=of) for x, of, new in ((sol, "solution", solved is None),
