@@ -41,6 +41,7 @@ class ReducedProblem:
         self.original, self.eqs = problem, reduced
         self.lam = reduced.multiplier_symbols[1]
         self.integral_terms = [replace(t, expression=self.translate(t.expression)) for t in problem.integral_terms]
+        self.terminal_terms = [replace(t, expression=self.translate(t.expression)) for t in problem.terminal_terms]
         self.path_constraints = [replace(c, expression=self.translate(c.expression)) for c in problem.path_constraints]
         names = set(problem.model.coordinate_names + problem.model.speed_names)
         # Body coordinates and speeds are expressions here, not variables: their bounds are path rows.

@@ -71,7 +71,7 @@ from .error_estimate import UNRESOLVED_OBJECTIVE, UNRESOLVED_STATE, estimate_err
 from .legendre_decay import DECAY_LIMIT, legendre_decay
 from .mesh_companions import (MAX_DEGREE, _degrees, _ends, as_fine, companion_of, finer, finer_at_hand,
                               pilot_of, pilot_pieces, reused_degree, split_pieces, uniform_step)
-from .mesh_progress import gave_up, interrupted, lowest_estimate, stall_message
+from .mesh_progress import gave_up, inputs_aside, interrupted, lowest_estimate, stall_message
 from .mesh_solves import (COMPLEMENTARITY, check_solver_tolerances, complementarity_tolerance, solver_floor,
                           tightened, iterations as _iterations, timed_solve as _timed_solve)   # scripts log _timed_solve
 from .nonsmooth import MIN_INTERVAL, flag_nonsmooth, judged_smoothness, nonsmooth_splits
@@ -340,7 +340,8 @@ def solve_to_tolerance(problem, tolerance, method=None, ipopt_options: dict | No
         entry["switches"] = [f for k in sorted(switches) for f in switches[k]]
         if met and not switches:
             record.update(met=True, message=f"estimated error at most {tol:g} after {r} refinements "
-                                            f"({scheme.intervals} intervals, {scheme.point_count} points)")
+                                            f"({scheme.intervals} intervals, {scheme.point_count} points)"
+                                            + inputs_aside(est.totals, tol))
             flag_nonsmooth(sol, tol, record, smoothness, windows)
             break
         if r == max_refinements:

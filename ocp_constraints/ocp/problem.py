@@ -20,6 +20,7 @@ import casadi as ca
 import numpy as np
 
 from .compiled_elements import check_policy
+from .terms import IntegralTerm, PathConstraint, TerminalTerm, finite as _finite
 from .solver_threads import one_blas_thread
 from .schemes import Scheme
 from ..mechanics.equations import SystemEquations
@@ -27,24 +28,6 @@ from ..errors import ModelError
 from ..mechanics.model import Model
 
 COORDINATES = ("auto", "maximal", "joint", "condensed")
-
-
-@dataclass
-class IntegralTerm:
-    label: str
-    expression: ca.SX
-    weight: float
-
-
-@dataclass
-class PathConstraint:
-    label: str
-    expression: ca.SX
-    lower: float
-    upper: float
-    # The row's typical magnitude where its bounds do not say it (a friction cone's are 0): the NLP's row is
-    # divided by the larger of this and its largest finite bound (transcription_elements.path_scale).
-    scale: float = 1.0
 
 
 @dataclass
@@ -81,6 +64,7 @@ class OptimalControlProblem:
     t_final: float = 1.0
     t_final_bounds: tuple[float, float] | None = None
     integral_terms: list[IntegralTerm] = field(default_factory=list)
+    terminal_terms: list[TerminalTerm] = field(default_factory=list)
     path_constraints: list[PathConstraint] = field(default_factory=list)
     time_weight: float = 0.0
     bounds: dict[str, tuple[float, float]] = field(default_factory=dict)
@@ -143,6 +127,17 @@ class OptimalControlProblem:
     def minimize_integral(self, expression, weight: float = 1.0, label: str = "integral") -> None:
         """Add ``weight * int expression dt`` (expression of q, u, inputs, lambda, t)."""
         self.integral_terms.append(IntegralTerm(label, ca.SX(expression), _finite(weight, f"weight of the objective term '{label}'")))
+
+    def minimize_terminal(self, expression, weight: float = 1.0, label: str = "terminal") -> None:
+        """Add ``weight * expression`` at the final time (a Mayer term; expression of q, u, inputs and t, where
+        t is the final time), e.g. ``w * (problem.quantity("block.x") - D) ** 2`` for a target reached as
+        closely as the effort allows; adds like every ``minimize_*`` term (``terminal_terms`` lists them)."""
+        expression = ca.SX(expression)
+        if ca.depends_on(expression, self.lam):
+            raise ModelError(f"terminal term '{label}': it uses multipliers (constraint loads); a terminal term is of "
+                             f"coordinates, speeds, inputs and the final time; for a load use minimize_integral or "
+                             f"subject_to")
+        self.terminal_terms.append(TerminalTerm(label, expression, _finite(weight, f"weight of the terminal term '{label}'")))
 
     def minimize_effort(self, inputs: list[str] | None = None, weight: float = 1.0) -> None:
         """Add ``weight * int sum tau_i^2 dt`` over the named inputs (default: all) to the objective; like every
@@ -258,6 +253,7 @@ class OptimalControlProblem:
                              f"(bodies, constraints, loads or inputs added); create the problem after the model "
                              f"is complete")
         return (tuple((id(term.expression), term.weight) for term in self.integral_terms),
+                tuple((id(term.expression), term.weight) for term in self.terminal_terms),
                 tuple((id(c.expression), c.lower, c.upper, c.scale) for c in self.path_constraints),
                 self.time_weight, tuple(self.initial_values), tuple(self.final_values),
                 self.t_final_bounds is not None, None if self.t_final_bounds is not None else self.t_final,
@@ -375,15 +371,6 @@ class OptimalControlProblem:
                 key = key[:4] + (self.structure_key(),)
                 cache[key] = transcribe_maximal(self, method)
         return cache[key]
-
-
-def _finite(value, what: str) -> float:
-    """``value`` as a float, or a :class:`ModelError` naming ``what`` (a NaN weight reaches IPOPT as
-    'Invalid_Number_Detected' after 0 iterations, which names nothing)."""
-    v = float(value)
-    if not np.isfinite(v):
-        raise ModelError(f"the {what} must be a finite number, got {value!r}")
-    return v
 
 
 def _model_contents(model: Model) -> tuple:

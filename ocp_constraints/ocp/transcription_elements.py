@@ -215,6 +215,12 @@ class ElementKinds:
 
             out.append(instances(which, self._kind(s, (which, tuple(values)), build_boundary),
                                  [np.concatenate([index["x"](i), index["w"](i)])], np.zeros((1, 0))))
+        if pr.terminal_terms:
+            # Mayer terms: a cost at the last point, of its state and inputs and the final time.
+            last = lay.n_points - 1
+            out.append(instances("terminal", self._kind(s, ("terminal",), lambda: (
+                ca.vertcat(x, w, *s.T_z), ca.vertcat(*s.T_c), SX(0, 1), s.point["terminal"](x, w, s.T))),
+                [np.concatenate([index["x"](last), index["w"](last), index["T"]])], [s.T_value]))
         if lay.free_time and pr.time_weight:
             out.append(instances("final_time", self._kind(s, ("final_time", float(pr.time_weight)),
                                                           lambda: (s.T, none, SX(0, 1), pr.time_weight * s.T)),
@@ -249,10 +255,13 @@ class ElementKinds:
         if pr.path_constraints:
             out["path"] = ca.Function("path", [x, lam, e.inputs, e.t],
                                       [ca.vertcat(*[c.expression / path_scale(c) for c in pr.path_constraints])])
-        for term in pr.integral_terms + pr.path_constraints:
+        for term in pr.integral_terms + pr.terminal_terms + pr.path_constraints:
             extra = [s.name() for s in ca.symvar(term.expression) if not ca.depends_on(ca.vertcat(x, lam, e.inputs, e.t), s)]
             if extra:
                 raise ModelError(f"'{term.label}' uses {extra}, which are not quantities of model '{pr.model.name}'")
+        if pr.terminal_terms:
+            out["terminal"] = ca.Function("terminal", [x, e.inputs, e.t],
+                                          [sum(term.weight * term.expression for term in pr.terminal_terms)])
         out["named"] = {n: ca.Function("boundary", [x, e.inputs], [pr.quantity(n)]) for n in {**pr.initial_values, **pr.final_values}}
         return out
 
