@@ -53,17 +53,9 @@ def gauss_integral(f, a, b, panels=400, n=16):
 
 
 # ----------------------------------------------------------------------------------------------- models
-def block_model(p, name):
-    import casadi as ca
-    import ocp_constraints as oc
-
-    model = oc.Model(name, gravity=(0.0, 0.0, 0.0))
-    b = model.add_body("block", p["m"], np.diag([0.01, 0.01, 0.01]), rotation="321")
-    oc.joints.prismatic(model, "rail", b.com, axis=(1, 0, 0))
-    F = model.add_input("F")
-    # pushed off the centre of mass, so the rail's moment multiplier carries h F
-    model.add_force("push", b.point("P", (0.0, p["h"], 0.0)), ca.vertcat(F, 0, 0))
-    return model
+# The first newcomer's block (scripts/refinement_newcomer_problems.py): pushed off its centre of mass, so the rail's
+# moment multiplier carries h F.
+from refinement_newcomer_problems import block_model  # noqa: E402  (scripts/ is on sys.path: this file's folder)
 
 
 def build(problem):
