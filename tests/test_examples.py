@@ -35,7 +35,7 @@ def _number(pattern: str, text: str) -> float:
 
 CHECKED = {"whirling_by_hand.py", "swing_up.py", "cart_pole_by_hand.py", "export_to_c.py",   # the tests below
            "wheel_on_slope.py", "spherical_pendulum.py",
-           "robot_arm_urdf.py", "bryson_denham.py"}                                   # tests/test_urdf.py (against Pinocchio)
+           "robot_arm_urdf.py", "bryson_denham.py", "terminal_target.py"}                                   # tests/test_urdf.py (against Pinocchio)
 UNCHECKED = sorted(p.name for p in EXAMPLES.glob("*.py") if p.name not in CHECKED)
 
 
@@ -311,3 +311,39 @@ def test_bryson_denham_example_meets_its_tolerance_against_the_closed_form():
     x_ref, v_ref = _bryson_denham(t)
     assert max(np.abs(x - x_ref).max(), np.abs(v - v_ref).max()) <= estimate
     assert _number(r"largest rail force ([-\d.e+]+) N", out) == pytest.approx(9.81, rel=1e-9)
+
+
+# -- terminal cost: a rod swung toward a target (examples/terminal_target.py) ---------------------
+def test_terminal_target_meets_pontryagins_conditions():
+    """Pontryagin's conditions of the example, solved by SciPy: psi'' = (tau - k sin psi) / J_A, tau = -p2 / (2 J_A),
+    p1' = p2 k cos psi / J_A, p2' = -p1, with psi(0) = omega(0) = 0 and the terminal cost's transversality
+    p1(T) = 2 W (psi(T) - target), p2(T) = 0 (the final speed is free). The final angle, the objective and the hinge
+    force at the end (Newton: m (a_com - g)) against the example's print."""
+    out = _run("terminal_target.py")
+    m, L, g, T, target, w = 1.0, 0.8, 9.81, 1.5, math.radians(120.0), 20.0
+    J, k = m * L**2 / 3, m * g * L / 2
+
+    def rhs(t, y):
+        psi, om, p1, p2 = y
+        tau = -p2 / (2 * J)
+        return np.vstack([om, (tau - k * np.sin(psi)) / J, p2 * k * np.cos(psi) / J, -p1])
+
+    def bc(ya, yb):
+        return np.array([ya[0], ya[1], yb[2] - 2 * w * (yb[0] - target), yb[3]])
+
+    t = np.linspace(0.0, T, 400)
+    guess = np.vstack([target * t / T, np.full_like(t, target / T), np.zeros_like(t), np.zeros_like(t)])
+    bvp = solve_bvp(rhs, bc, t, guess, tol=1e-10, max_nodes=200000)
+    assert bvp.success, bvp.message
+    fine = np.linspace(0.0, T, 20001)
+    psi, om, _, p2 = bvp.sol(fine)
+    tau = -p2 / (2 * J)
+    objective = simpson(tau**2, x=fine) + w * (psi[-1] - target) ** 2
+    alpha = (tau[-1] - k * math.sin(psi[-1])) / J
+    a_com = L / 2 * np.array([math.cos(psi[-1]) * alpha - math.sin(psi[-1]) * om[-1] ** 2,
+                              math.sin(psi[-1]) * alpha + math.cos(psi[-1]) * om[-1] ** 2])
+    force_end = float(np.linalg.norm(m * a_com + np.array([0.0, m * g])))
+    assert "estimated error at most 1e-06" in out
+    assert _number(r"final angle: ([\d.]+) deg", out) == pytest.approx(math.degrees(psi[-1]), abs=1e-5)
+    assert _number(r"objective: ([\d.]+)", out) == pytest.approx(objective, rel=1e-7)
+    assert _number(r"at the end: ([\d.]+) N", out) == pytest.approx(force_end, rel=1e-5)
