@@ -76,3 +76,16 @@ def test_a_terminal_cost_of_a_load_is_refused_by_name():
         ocp.minimize_terminal(ocp.multiplier("rail.w3") ** 2, label="rail moment")
     with pytest.raises(ModelError, match="weight of the terminal term"):
         ocp.minimize_terminal(ocp.quantity("block.x"), weight=float("nan"))
+
+
+def test_a_terminal_cost_of_the_final_time_is_the_minimum_time_trade_off():
+    """``minimize_terminal(2 t)`` with a free final time: rest to rest over D at least int F^2 costs 12 m^2 D^2 / T^3,
+    so J(T) = 2 T + 12 m^2 D^2 / T^3 is least at T = (18 m^2 D^2)^(1/4) (and minimize_final_time(2) says the same)."""
+    ocp = block()
+    ocp.t_final_bounds = (0.5, 5.0)
+    ocp.final({"block.x": D, "block.vbar_x": 0.0})
+    ocp.minimize_terminal(2.0 * ocp.model.t, label="time")
+    sol = ocp.solve(oc.Radau(10, degree=5))
+    T_opt = (18 * M**2 * D**2) ** 0.25
+    assert sol.t_final == pytest.approx(T_opt, rel=1e-8)
+    assert sol.objective == pytest.approx(2 * T_opt + 12 * M**2 * D**2 / T_opt**3, rel=1e-9)
