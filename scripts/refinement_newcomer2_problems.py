@@ -55,12 +55,11 @@ def gauss_integral(f, a, b, panels=400, n=16):
 # ----------------------------------------------------------------------------------------------- models
 # The first newcomer's block (scripts/refinement_newcomer_problems.py): pushed off its centre of mass, so the rail's
 # moment multiplier carries h F.
-from refinement_newcomer_problems import block_model  # noqa: E402  (scripts/ is on sys.path: this file's folder)
+from refinement_newcomer_problems import block_model, rod_problem  # noqa: E402  (scripts/ is on sys.path: this file's folder)
 
 
 def build(problem):
     """A fresh OptimalControlProblem for ``problem`` (one of PROBLEMS)."""
-    import casadi as ca
     import ocp_constraints as oc
 
     if problem in LQS:
@@ -72,17 +71,7 @@ def build(problem):
         return ocp
     if problem in PENDS:
         p = PENDS[problem]
-        m, L = p["m"], p["L"]
-        model = oc.Model(problem, gravity=(0.0, -p["g"], 0.0))
-        rod = model.add_body("rod", m, m * L**2 / 12 * np.diag([1.0, 0.0, 1.0]), rotation="321")
-        oc.joints.revolute(model, "hinge", rod.point("A", [0.0, L / 2, 0.0]), axis=(0, 0, 1))
-        tau = model.add_input("motor")
-        model.add_torque("motor", rod, ca.vertcat(0, 0, tau))
-        ocp = oc.OptimalControlProblem(model, t_final=p["T"])
-        ocp.initial({"rod.psi": 0.0, "rod.psi_dot": 0.0})
-        ocp.final({"rod.psi": p["Theta"], "rod.psi_dot": 0.0})
-        ocp.minimize_effort(["motor"])
-        return ocp
+        return rod_problem(problem, p["m"], p["L"], p["g"], p["T"], p["Theta"])
     if problem == "mayer":
         p = MAYER
         ocp = oc.OptimalControlProblem(block_model(p, "mayer"), t_final=p["T"])

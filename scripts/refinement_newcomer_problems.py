@@ -145,8 +145,25 @@ def block_model(p, name):
     return model
 
 
-def build(problem):
+def rod_problem(name, m, L, g, T, Theta):
+    """A rod (mass m, length L) on a revolute joint at its end A about E3, gravity g along -E2, driven by a torque
+    ``motor``; rest to rest from psi = 0 to Theta in T, least int tau^2 (the second newcomer's pendulums too)."""
     import casadi as ca
+    import ocp_constraints as oc
+
+    model = oc.Model(name, gravity=(0.0, -g, 0.0))
+    rod = model.add_body("rod", m, m * L**2 / 12 * np.diag([1.0, 0.0, 1.0]), rotation="321")
+    oc.joints.revolute(model, "hinge", rod.point("A", [0.0, L / 2, 0.0]), axis=(0, 0, 1))
+    tau = model.add_input("motor")
+    model.add_torque("motor", rod, ca.vertcat(0, 0, tau))
+    ocp = oc.OptimalControlProblem(model, t_final=T)
+    ocp.initial({"rod.psi": 0.0, "rod.psi_dot": 0.0})
+    ocp.final({"rod.psi": Theta, "rod.psi_dot": 0.0})
+    ocp.minimize_effort(["motor"])
+    return ocp
+
+
+def build(problem):
     import ocp_constraints as oc
 
     if problem == "clipped_push":
@@ -167,17 +184,8 @@ def build(problem):
         return ocp
     if problem == "rod_torque":
         p = P3
-        m, L = p["m"], p["L"]
-        model = oc.Model("rod_torque", gravity=(0.0, 0.0, 0.0))
-        rod = model.add_body("rod", m, m * L**2 / 12 * np.diag([1.0, 0.0, 1.0]), rotation="321")
-        oc.joints.revolute(model, "hinge", rod.point("A", [0.0, L / 2, 0.0]), axis=(0, 0, 1))
-        tau = model.add_input("motor")
-        model.add_torque("motor", rod, ca.vertcat(0, 0, tau))
-        ocp = oc.OptimalControlProblem(model, t_final=p["T"])
-        ocp.initial({"rod.psi": 0.0, "rod.psi_dot": 0.0})
-        ocp.final({"rod.psi": p["Theta"], "rod.psi_dot": 0.0})
+        ocp = rod_problem("rod_torque", p["m"], p["L"], 0.0, p["T"], p["Theta"])
         ocp.bound("motor", -p["tmax"], p["tmax"])
-        ocp.minimize_effort(["motor"])
         return ocp
     if problem == "min_time":
         p = P4

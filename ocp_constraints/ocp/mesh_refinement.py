@@ -240,6 +240,7 @@ def solve_to_tolerance(problem, tolerance, method=None, ipopt_options: dict | No
     scheme = start_scheme(method)
     options = dict(ipopt_options or {})
     check_solver_tolerances(options, tol)
+    floor = solver_floor(options)       # no estimate below what each solve is asked of IPOPT (error_estimate)
     history: list[dict] = []
     record = {"tolerance": tol, "quantities_refined_on": list(GATED), "met": False, "history": history,
               "coordinates": problem.nlp_coordinates}
@@ -302,7 +303,7 @@ def solve_to_tolerance(problem, tolerance, method=None, ipopt_options: dict | No
         total += t_sol + t_comp
         total_cpu += c_sol + c_comp
         windows = jump_windows(found + detect_switches(companion), scheme.mesh_fractions)
-        est = estimate_error(sol, companion, windows=windows, switches=found, floor=solver_floor(options))
+        est = estimate_error(sol, companion, windows=windows, switches=found, floor=floor)
         if judge is None:
             entry.update(companion_iterations=_iterations(companion), companion_time_s=t_comp, companion_cpu_s=c_comp)
         retried = [dict(x.warm_retry, of=of) for x, of, new in ((sol, "solution", solved is None),

@@ -30,6 +30,8 @@ from .switch_detection import activity, bounded_quantities
 
 ACCEPTABLE = "Solved_To_Acceptable_Level"
 COMPLEMENTARITY = "ipopt.compl_inf_tol"
+# IPOPT's tolerances on each solve's optimality and feasibility: how close to its NLP's optimum a solve stops.
+SOLVER_TOLERANCES = ("ipopt.tol", "ipopt.constr_viol_tol")
 
 
 def complementarity_tolerance(tol: float, options: dict, first) -> float | None:
@@ -78,14 +80,14 @@ def solver_floor(options: dict) -> float:
     user's or :data:`.transcription.DEFAULT_IPOPT`'s): the floor of the error estimate (:func:`.error_estimate.estimate_error`)."""
     from .transcription import DEFAULT_IPOPT
 
-    return max(float(options.get(name, DEFAULT_IPOPT[name])) for name in ("ipopt.tol", "ipopt.constr_viol_tol"))
+    return max(float(options.get(name, DEFAULT_IPOPT[name])) for name in SOLVER_TOLERANCES)
 
 
 def check_solver_tolerances(options: dict, tol: float) -> None:
     """Refuse IPOPT tolerances looser than the refinement's own ``tol`` (a :class:`ModelError` naming the option):
     each solve would stop that far from its optimum, and the difference of two solves, the estimate, would measure
     IPOPT rather than the mesh (a newcomer's ``ipopt.tol`` 1e-4 under ``tolerance=1e-6`` ran without a word)."""
-    for name in ("ipopt.tol", "ipopt.constr_viol_tol"):
+    for name in SOLVER_TOLERANCES:
         value = options.get(name)
         if isinstance(value, (int, float)) and not isinstance(value, bool) and value > tol:
             raise ModelError(f"'{name}' {value:g} is looser than the tolerance {tol:g} asked of the mesh: each solve would "

@@ -19,11 +19,8 @@ class IntegralTerm:
 
 
 @dataclass
-class TerminalTerm:
-    """``weight * expression`` at the final time (a Mayer term)."""
-    label: str
-    expression: ca.SX
-    weight: float
+class TerminalTerm(IntegralTerm):
+    """``weight * expression`` at the final time (a Mayer term): the same fields, read at one point."""
 
 
 @dataclass
