@@ -414,9 +414,10 @@ def test_a_push_that_saturates_meets_1e_6_against_its_closed_form_with_the_refin
     """A newcomer's block (2 kg on a rail, 1 m rest to rest in 1 s, min int F^2, |F| <= 10 N): the optimal push is
     F = sat(c (T/2 - t)), c from x(T) = 1 by bisection on a 200,001-point quadrature (independent of the library).
     With IPOPT's own complementarity tolerance (1e-4) the interior point rounds the corners where F reaches its bound
-    and the refinement at 1e-6 ended "not met" (22 solves); under a tolerance below 1e-4 the refinement's warm solves
-    now ask IPOPT for (0.1 tol)^2 (mesh_solves.complementarity_tolerance), recorded in the history: met, the states'
-    true error inside [0.1, 1] of the estimate, the push within 1e-5 N. A user's own compl_inf_tol is kept."""
+    and the refinement at 1e-6 ended "not met" (22 solves); at a tolerance of 1e-4 or below the refinement's warm
+    solves now ask IPOPT for 1e-14 (mesh_solves.complementarity_tolerance), recorded in the history: met, the states'
+    true error inside [0.1, 1] of the estimate, the push within 1e-5 N. A user's own compl_inf_tol is kept, and
+    above 1e-4 IPOPT's own holds."""
     import casadi as ca
     from scipy.optimize import brentq
 
@@ -451,7 +452,8 @@ def test_a_push_that_saturates_meets_1e_6_against_its_closed_form_with_the_refin
     assert np.abs(sol.sample("F") - np.clip(c * (T / 2 - sol.t), -fmax, fmax)).max() <= 1e-5
     assert "complementarity_tolerance" not in ocp.solve(tolerance=1e-6, ipopt_options={"ipopt.compl_inf_tol": 1e-13},
                                                         max_refinements=0).mesh_refinement
-    assert "complementarity_tolerance" not in ocp.solve(tolerance=1e-4, max_refinements=0).mesh_refinement
+    assert ocp.solve(tolerance=1e-4, max_refinements=0).mesh_refinement["complementarity_tolerance"] == 1e-14
+    assert "complementarity_tolerance" not in ocp.solve(tolerance=1e-3, max_refinements=0).mesh_refinement
 
 
 def test_a_refinement_not_met_returns_its_lowest_estimate_and_says_so():

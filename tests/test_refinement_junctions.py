@@ -94,14 +94,14 @@ def test_an_interval_holding_a_floored_kink_is_not_flagged_or_halved_for_it():
 
 
 def test_at_1e_5_the_speed_limit_is_met_with_an_estimate_that_bounds_the_closed_form_error():
-    """Below 1e-4 the warm solves ask IPOPT for complementarity (0.1 tol)^2 (mesh_solves.complementarity_tolerance):
+    """At 1e-4 and below the warm solves ask IPOPT for complementarity 1e-14 (mesh_solves.complementarity_tolerance):
     with IPOPT's own 1e-4 the kinks at the junctions stayed rounded and 1e-5 was not met after 10 refinements
     (multipliers' estimate 3.7e-5). Now met from the default first mesh, and the estimate of the states and of the
     rail's load is above the closed-form error and within 10x of it."""
     sol = solve_to_tolerance(_block(), 1e-5)
     mr = sol.mesh_refinement
     assert mr["met"], mr["message"]
-    assert mr["complementarity_tolerance"] == 1e-12
+    assert mr["complementarity_tolerance"] == 1e-14
     est, true = mr["estimate"], _true_errors(sol)
     for q in ("states", "multipliers"):
         assert est[q] / 10 <= true[q] <= est[q] <= 1e-5, (q, true[q], est[q])
@@ -114,7 +114,9 @@ def test_a_push_leaving_its_bound_inside_an_interval_is_judged_by_a_companion_th
     two degrees up on the same interval carried nearly the same error: at 1e-4 the refinement claimed "met" with the
     load's true error 1.42x the estimate (9.8e-5 against 6.9e-5, 1.09e-4 at the junction itself). The companion now
     halves the intervals holding a located junction: at 1e-4 and 1e-5 the true error lies inside [0.1, 1] of the
-    estimate, and a claimed "met" holds."""
+    estimate, and a claimed "met" holds. The true error is largest at the junctions themselves, which the grid
+    holds. At 1e-4 it is met (with IPOPT's complementarity at 1e-4 the barrier rounded the kink more, the shorter the
+    intervals split towards it: the estimate stalled at 2.2e-4, mesh_solves.complementarity_tolerance)."""
     from scipy.optimize import brentq
 
     m, d, T, fmax, h = 1.5, 0.8, 1.2, 4.0, 0.1
@@ -125,6 +127,7 @@ def test_a_push_leaving_its_bound_inside_an_interval_is_judged_by_a_companion_th
     tt = np.linspace(0.0, T, 200_001)
     c = brentq(lambda c: np.trapezoid((T - tt) * np.clip(c * (T / 2 - tt), -fmax, fmax) / m, tt) - d, 1.0, 1e3,
                xtol=1e-14)
+    junctions = [T / 2 - fmax / c, T / 2 + fmax / c]
     for tol in (1e-4, 1e-5):
         problem = OptimalControlProblem(model, t_final=T)
         problem.initial({"block.x": 0.0, "block.vbar_x": 0.0})
@@ -133,9 +136,10 @@ def test_a_push_leaving_its_bound_inside_an_interval_is_judged_by_a_companion_th
         problem.minimize_effort(["F"])
         sol = problem.solve(tolerance=tol)
         mr = sol.mesh_refinement
-        grid = np.unique(np.concatenate([np.linspace(0.0, T, 4001), sol.t]))
+        grid = np.unique(np.concatenate([np.linspace(0.0, T, 4001), sol.t, junctions]))
         grid = grid[grid > 0]       # Radau has no collocation point at t = 0 (the estimate leaves it out too)
         load = np.abs(sol.interpolate("F", grid) - np.clip(c * (T / 2 - grid), -fmax, fmax)).max() / fmax
         est = mr["estimate"]["multipliers"]
         assert est / 10 <= load <= est, (tol, load, est)
         assert load <= tol or not mr["met"]
+        assert mr["met"] or tol < 1e-4, mr["message"]

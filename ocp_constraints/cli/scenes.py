@@ -189,7 +189,7 @@ def _solve(args) -> int:
         print(f"  mesh refinement to {mr['tolerance']:g}: {'met' if mr['met'] else 'NOT met'} after {mr['refinements']} "
               f"refinements, {len(mr['degrees'])} intervals of degrees {min(mr['degrees'])}-{max(mr['degrees'])}; "
               f"estimated error {est}; {mr['total_time_s']:.2f} s in all")
-        if "complementarity_tolerance" in mr:   # mesh_solves.complementarity_tolerance: bounds reached, tol < 1e-4
+        if "complementarity_tolerance" in mr:   # mesh_solves.complementarity_tolerance: bounds reached, tol <= 1e-4
             print(f"  IPOPT's complementarity held to {mr['complementarity_tolerance']:.0e} in the warm solves "
                   f"(bounds or path constraints are reached)")
         if not mr["met"]:       # why: the estimate above the tolerance, or not trusted at a switch (intervals named)

@@ -4,10 +4,10 @@
 
 1. solve on the current mesh (warm-started from the previous refinement's companion; a warm solve that its start
    misleads is stopped and solved again with IPOPT's own options, :data:`WARM_FACTOR`, that retry capped too,
-   :data:`FALLBACK_FACTOR`; a mesh neither solves ends the refinement with the last estimated solution); below a
-   tolerance of 1e-4, where the first solution reaches a bound or a path constraint, the warm solves hold IPOPT's
-   complementarity to ``(0.1 tol)^2`` (:func:`.mesh_solves.complementarity_tolerance`: IPOPT's own 1e-4 rounds
-   the corners there by more than such a tolerance), and the first mesh is solved again so, warm from its cold
+   :data:`FALLBACK_FACTOR`; a mesh neither solves ends the refinement with the last estimated solution); at a
+   tolerance of 1e-4 or below, where the first solution reaches a bound or a path constraint, the warm solves hold
+   IPOPT's complementarity to 1e-14 (:func:`.mesh_solves.complementarity_tolerance`: the barrier rounds the corners
+   there by more the shorter the intervals, so by more as the refinement splits towards them), and the first mesh is solved again so, warm from its cold
    solution (:func:`.mesh_solves.tightened`);
 2. judge it against a *companion*: a solution at hand that is finer everywhere, if there is one
    (:func:`.mesh_companions.finer`: each interval halved at a degree at least its own, or kept at two

@@ -30,30 +30,43 @@ from .switch_detection import activity, bounded_quantities
 
 ACCEPTABLE = "Solved_To_Acceptable_Level"
 COMPLEMENTARITY = "ipopt.compl_inf_tol"
+# The warm solves' complementarity where a bound is reached at a tolerance of TIGHTENED_AT or below
+# (:func:`complementarity_tolerance`): about the smallest IPOPT reaches in double precision.
+COMPLEMENTARITY_FLOOR = 1e-14
+TIGHTENED_AT = 1e-4
 # IPOPT's tolerances on each solve's optimality and feasibility: how close to its NLP's optimum a solve stops.
 SOLVER_TOLERANCES = ("ipopt.tol", "ipopt.constr_viol_tol")
 
 
 def complementarity_tolerance(tol: float, options: dict, first) -> float | None:
-    """IPOPT's complementarity tolerance for the warm solves of a refinement to ``tol``: ``(0.1 tol)^2``, at
-    least 1e-14, where ``tol`` is below 1e-4, the user set none, and an inequality (a bound on an input or a state,
-    a path constraint) is active somewhere on ``first``, the first mesh's solution
-    (:func:`.switch_detection.activity`); else None (IPOPT's own, 1e-4).
+    """IPOPT's complementarity tolerance for the warm solves of a refinement to ``tol``: :data:`COMPLEMENTARITY_FLOOR`
+    where ``tol`` is 1e-4 or below, the user set none, and an inequality (a bound on an input or a state, a path
+    constraint) is active somewhere on ``first``, the first mesh's solution (:func:`.switch_detection.activity`);
+    else None (IPOPT's own, 1e-4).
 
-    Why: an interior point holds an active inequality at a distance mu / z, z its multiplier, which falls to zero
-    at a junction; with IPOPT's 1e-4 the corners where an input reaches its bound or a friction cone becomes
-    active are rounded, and that rounding shows below about 1e-5 as an error no mesh removes (the clipped push:
-    F 2.9e-4 N off the closed form with 1e-4, 1.1e-6 with 1e-13, ``scripts/refinement_bound_noise.py``). The
-    refinement then splits the intervals there again and again: the block under a speed limit at 1e-5 was not
-    met after 10 refinements, the wheel on a slope neither; both are met now (README, "Accuracy on request").
-    Only where a bound is reached: the swing-up's motor bound is never, and the tighter tolerance cost its
-    companions an IPOPT iteration each. The first mesh's cold solve keeps IPOPT's own, and is then solved again
-    under this one, warm from itself (:func:`tightened`)."""
-    if tol >= 1e-4 or COMPLEMENTARITY in options:
+    Why: an interior point holds an active inequality at a distance mu / z from its bound, z its multiplier. At a
+    collocation point z carries the point's quadrature weight, so it shrinks with the interval's length h, and it
+    falls to zero at a junction: the rounding grows as the refinement shortens the intervals at a junction, the
+    one place it refines. A newcomer's rod (|tau| <= 0.9 N m, rest to rest, least int tau^2) on fixed Radau 7 meshes
+    with an interval of length h about the junction, torque's error there against the closed form: 2.3e-4, 5.1e-4,
+    7.9e-4, 2.6e-3, 4.4e-3 for h = 1e-2, 3e-3, 1e-3, 3e-4, 1e-4 of the horizon with IPOPT's own (its barrier ends
+    near 1e-11 under our ``ipopt.tol`` 1e-10; compl_inf_tol 1e-8 and 1e-10 the same), 2.1e-4, 1.2e-4, 5.8e-5, 3.5e-5,
+    5.6e-5 with 1e-13. So a refinement at 1e-4 that split towards the junction made its estimate *grow*
+    (3.4e-4 -> 1.4e-3 over three refinements) and stalled; with (0.1 tol)^2 (1e-10 at 1e-4, the rule before) and
+    1e-12 it stalled too, with 1e-14 it met 1e-4 on 175 points. Below 1e-4 the same: ``(0.1 tol)^2`` (1e-12 at
+    1e-5) left the pushes clipped at an input bound and the asymmetric bang-bang block "not met" at 1e-5; with
+    1e-14 they meet it, true errors 0.61-0.68 of the estimate (``scripts/refinement_holdouts.py``,
+    ``scripts/refinement_newcomer_check.py``; README, "Accuracy on request"). Its cost: more IPOPT iterations
+    where a bound is reached, and MUMPS slows on the KKT systems of the hinge holdout (a path constraint on a
+    load, maximal coordinates) at 1e-4: 139 s of CPU for 72 s, the same mesh. Only where a bound is reached: the
+    swing-up's motor bound is never, and a tighter tolerance cost its companions an IPOPT iteration each. The
+    first mesh's cold solve keeps IPOPT's own, and is then solved again under this one, warm from itself
+    (:func:`tightened`)."""
+    if tol > TIGHTENED_AT or COMPLEMENTARITY in options:
         return None
     if not any(np.any(activity(values, lo, hi)[0]) for _, values, lo, hi, _, _ in bounded_quantities(first)):
         return None
-    return max(float(f"{(0.1 * tol) ** 2:.12g}"), 1e-14)     # 1e-12 at 1e-5, not 1.0000000000000004e-12
+    return COMPLEMENTARITY_FLOOR
 
 
 def tightened(cold, options: dict, progress):
