@@ -416,8 +416,9 @@ def test_a_push_that_saturates_meets_1e_6_against_its_closed_form_with_the_refin
     With IPOPT's own complementarity tolerance (1e-4) the interior point rounds the corners where F reaches its bound
     and the refinement at 1e-6 ended "not met" (22 solves); at a tolerance of 1e-4 or below the refinement's warm
     solves now ask IPOPT for 1e-14 (mesh_solves.complementarity_tolerance), recorded in the history: met, the states'
-    true error inside [0.1, 1] of the estimate, the push within 1e-5 N. A user's own compl_inf_tol is kept, and
-    above 1e-4 IPOPT's own holds."""
+    true error inside [0.1, 1] of the estimate, the push within 1e-5 N. Those solves also turn MUMPS's scaling off
+    (mesh_solves.without_mumps_scaling). A user's own compl_inf_tol and mumps_scaling are kept, and above 1e-4
+    IPOPT's own hold."""
     import casadi as ca
     from scipy.optimize import brentq
 
@@ -452,8 +453,11 @@ def test_a_push_that_saturates_meets_1e_6_against_its_closed_form_with_the_refin
     assert np.abs(sol.sample("F") - np.clip(c * (T / 2 - sol.t), -fmax, fmax)).max() <= 1e-5
     assert "complementarity_tolerance" not in ocp.solve(tolerance=1e-6, ipopt_options={"ipopt.compl_inf_tol": 1e-13},
                                                         max_refinements=0).mesh_refinement
-    assert ocp.solve(tolerance=1e-4, max_refinements=0).mesh_refinement["complementarity_tolerance"] == 1e-14
-    assert "complementarity_tolerance" not in ocp.solve(tolerance=1e-3, max_refinements=0).mesh_refinement
+    at_1e_4 = ocp.solve(tolerance=1e-4, max_refinements=0).mesh_refinement
+    assert at_1e_4["complementarity_tolerance"] == 1e-14 and at_1e_4["mumps_scaling"] == 0
+    assert ocp.solve(tolerance=1e-4, ipopt_options={"ipopt.mumps_scaling": 77},
+                     max_refinements=0).mesh_refinement["mumps_scaling"] == 77
+    assert not {"complementarity_tolerance", "mumps_scaling"} & set(ocp.solve(tolerance=1e-3, max_refinements=0).mesh_refinement)
 
 
 def test_a_refinement_not_met_returns_its_lowest_estimate_and_says_so():

@@ -7,8 +7,8 @@
    :data:`FALLBACK_FACTOR`; a mesh neither solves ends the refinement with the last estimated solution); at a
    tolerance of 1e-4 or below, where the first solution reaches a bound or a path constraint, the warm solves hold
    IPOPT's complementarity to 1e-14 (:func:`.mesh_solves.complementarity_tolerance`: the barrier rounds the corners
-   there by more the shorter the intervals, so by more as the refinement splits towards them), and the first mesh is solved again so, warm from its cold
-   solution (:func:`.mesh_solves.tightened`);
+   there by more the shorter the intervals), with MUMPS's scaling off (:func:`.mesh_solves.without_mumps_scaling`),
+   and the first mesh is solved again so, warm from its cold solution (:func:`.mesh_solves.tightened`);
 2. judge it against a *companion*: a solution at hand that is finer everywhere, if there is one
    (:func:`.mesh_companions.finer`: each interval halved at a degree at least its own, or kept at two
    degrees more; no solve; none where a junction lies inside an interval), else the same mesh with every degree
@@ -72,8 +72,8 @@ from .legendre_decay import DECAY_LIMIT, legendre_decay
 from .mesh_companions import (MAX_DEGREE, _degrees, _ends, as_fine, companion_of, finer, finer_at_hand,
                               pilot_of, pilot_pieces, reused_degree, split_pieces, uniform_step)
 from .mesh_progress import gave_up, inputs_aside, interrupted, lowest_estimate, stall_message
-from .mesh_solves import (COMPLEMENTARITY, check_solver_tolerances, complementarity_tolerance, solver_floor,
-                          tightened, iterations as _iterations, timed_solve as _timed_solve)   # scripts log _timed_solve
+from .mesh_solves import (COMPLEMENTARITY, MUMPS_SCALING, check_solver_tolerances, complementarity_tolerance, solver_floor,
+                          tightened, without_mumps_scaling, iterations as _iterations, timed_solve as _timed_solve)
 from .nonsmooth import MIN_INTERVAL, flag_nonsmooth, judged_smoothness, nonsmooth_splits
 from .schemes import Radau
 from .switch_detection import detect_switches, jump_windows, split_points, touched
@@ -267,6 +267,8 @@ def solve_to_tolerance(problem, tolerance, method=None, ipopt_options: dict | No
                 later = dict(options)    # the warm solves: IPOPT's complementarity held to the tolerance (mesh_solves)
                 if (compl := complementarity_tolerance(tol, options, sol)) is not None:
                     later[COMPLEMENTARITY] = record["complementarity_tolerance"] = compl
+                    later.update(without_mumps_scaling(options))     # MUMPS's scaling there: mesh_solves
+                    record["mumps_scaling"] = later[MUMPS_SCALING]
                 warm_options = {**WARM_IPOPT, "ipopt.max_iter": max(WARM_MIN_ITER, WARM_FACTOR * sol.iterations), **later}
                 fallback = {"ipopt.max_iter": max(FALLBACK_MIN_ITER, FALLBACK_FACTOR * sol.iterations), **later}
                 if compl is not None:       # the first mesh too, under the tightened complementarity (mesh_solves)

@@ -34,6 +34,7 @@ COMPLEMENTARITY = "ipopt.compl_inf_tol"
 # (:func:`complementarity_tolerance`): about the smallest IPOPT reaches in double precision.
 COMPLEMENTARITY_FLOOR = 1e-14
 TIGHTENED_AT = 1e-4
+MUMPS_SCALING = "ipopt.mumps_scaling"
 # IPOPT's tolerances on each solve's optimality and feasibility: how close to its NLP's optimum a solve stops.
 SOLVER_TOLERANCES = ("ipopt.tol", "ipopt.constr_viol_tol")
 
@@ -57,8 +58,8 @@ def complementarity_tolerance(tol: float, options: dict, first) -> float | None:
     1e-5) left the pushes clipped at an input bound and the asymmetric bang-bang block "not met" at 1e-5; with
     1e-14 they meet it, true errors 0.61-0.68 of the estimate (``scripts/refinement_holdouts.py``,
     ``scripts/refinement_newcomer_check.py``; README, "Accuracy on request"). Its cost: more IPOPT iterations
-    where a bound is reached, and MUMPS slows on the KKT systems of the hinge holdout (a path constraint on a
-    load, maximal coordinates) at 1e-4: 139 s of CPU for 72 s, the same mesh. Only where a bound is reached: the
+    where a bound is reached, and, with MUMPS's own scaling, slow factorizations (the hinge holdout at 1e-4: 139 s
+    of CPU for 72 s; :func:`without_mumps_scaling` turns it off in these solves: 29 s). Only where a bound is reached: the
     swing-up's motor bound is never, and a tighter tolerance cost its companions an IPOPT iteration each. The
     first mesh's cold solve keeps IPOPT's own, and is then solved again under this one, warm from itself
     (:func:`tightened`)."""
@@ -67,6 +68,23 @@ def complementarity_tolerance(tol: float, options: dict, first) -> float | None:
     if not any(np.any(activity(values, lo, hi)[0]) for _, values, lo, hi, _, _ in bounded_quantities(first)):
         return None
     return COMPLEMENTARITY_FLOOR
+
+
+def without_mumps_scaling(options: dict) -> dict:
+    """The option that turns MUMPS's own scaling off (``{"ipopt.mumps_scaling": 0}``), added to the warm solves that hold
+    the complementarity at :data:`COMPLEMENTARITY_FLOOR` (:func:`complementarity_tolerance`), unless the user set it.
+
+    Why: with the barrier driven to 1e-14 the KKT matrices' diagonal spans the ratios z / s of the active bounds, and
+    MUMPS's default scaling (IPOPT's 77, chosen by MUMPS) then cost up to about 1 s a factorization: the hinge holdout's
+    382-point warm solve took 6.37 s of CPU, 1.61 s unscaled, the same 20 iterations (``results/bench/
+    refinement_mumps_scaling.md``). Measured with the tightened complementarity (``results/bench/refinement_compl_floor/``):
+    the hinge holdout at 1e-4 met in 29 s for 139 s, the four-bar at 1e-4 met on 970 points in 39 s where it ran past
+    the 240 s cap, the rolling-disk drive and the crane 1.5x faster; the holdouts' and the first newcomer's meshes,
+    estimates and true errors against their closed forms unchanged, the drive's against its reference too. Only
+    there: IPOPT's default weighted matching (``mumps_permuting_scaling``) is kept, and no solve of a problem whose
+    bounds are never reached changes. Turning off that matching instead lost the whirling ``spin_up``'s constraint
+    loads on its ill-conditioned Jacobian (1.99 of the largest load off) and was not taken."""
+    return {} if MUMPS_SCALING in options else {MUMPS_SCALING: 0}
 
 
 def tightened(cold, options: dict, progress):
