@@ -190,7 +190,8 @@ def _solve(args) -> int:
               f"refinements, {len(mr['degrees'])} intervals of degrees {min(mr['degrees'])}-{max(mr['degrees'])}; "
               f"estimated error {est}; {mr['total_time_s']:.2f} s in all")
         if "complementarity_tolerance" in mr:   # mesh_solves.complementarity_tolerance: bounds reached, tol <= 1e-4
-            print(f"  IPOPT's complementarity held to {mr['complementarity_tolerance']:.0e} in the warm solves "
+            unscaled = " with MUMPS's scaling off" if mr.get("mumps_scaling") == 0 else ""
+            print(f"  IPOPT's complementarity held to {mr['complementarity_tolerance']:.0e} in the warm solves{unscaled} "
                   f"(bounds or path constraints are reached)")
         if not mr["met"]:       # why: the estimate above the tolerance, or not trusted at a switch (intervals named)
             print(f"  {mr['message']}")
