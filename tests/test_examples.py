@@ -35,7 +35,7 @@ def _number(pattern: str, text: str) -> float:
 
 CHECKED = {"whirling_by_hand.py", "swing_up.py", "cart_pole_by_hand.py", "export_to_c.py",   # the tests below
            "wheel_on_slope.py", "spherical_pendulum.py",
-           "robot_arm_urdf.py", "bryson_denham.py", "terminal_target.py"}                                   # tests/test_urdf.py (against Pinocchio)
+           "robot_arm_urdf.py", "bryson_denham.py", "terminal_target.py", "torque_limited_rod.py"}                                   # tests/test_urdf.py (against Pinocchio)
 UNCHECKED = sorted(p.name for p in EXAMPLES.glob("*.py") if p.name not in CHECKED)
 
 
@@ -347,3 +347,38 @@ def test_terminal_target_meets_pontryagins_conditions():
     assert _number(r"final angle: ([\d.]+) deg", out) == pytest.approx(math.degrees(psi[-1]), abs=1e-5)
     assert _number(r"objective: ([\d.]+)", out) == pytest.approx(objective, rel=1e-7)
     assert _number(r"at the end: ([\d.]+) N", out) == pytest.approx(force_end, rel=1e-5)
+
+
+# -- an input bound reached: a torque-limited rod to a tolerance (examples/torque_limited_rod.py) -----------------
+def test_torque_limited_rod_meets_its_tolerance_against_the_closed_form():
+    """Least int tau^2 rest to rest with |tau| <= TAU_MAX and no gravity: Pontryagin's torque is the unbounded linear
+    law clipped, tau = clip(c (T/2 - t)), c from psi(T) = THETA = int_0^T (T - t) tau(t) / J_A dt by bisection on a
+    200,001-point quadrature (J_A = m L^2 / 3). The hinge holds the centre of mass on its circle of radius L/2:
+    |F| = m L/2 sqrt(psi''^2 + psi'^4). At 1e-4 the example is met (since the warm solves hold IPOPT's
+    complementarity at 1e-14: mesh_solves.complementarity_tolerance; it stalled before), and its printed torque and
+    hinge force are within the estimate of the closed form (relative to the largest torque and force)."""
+    from scipy.optimize import brentq
+
+    out = _run("torque_limited_rod.py")
+    m, L, T, theta, tau_max = 0.8, 0.6, 0.8, 1.2, 0.9
+    J = m * L**2 / 3
+    tt = np.linspace(0.0, T, 200_001)
+    c = brentq(lambda c: np.trapezoid((T - tt) * np.clip(c * (T / 2 - tt), -tau_max, tau_max), tt) / J - theta,
+               0.1, 1e3, xtol=1e-14)
+
+    def closed_form(t):
+        tau = np.clip(c * (T / 2 - t), -tau_max, tau_max)
+        rate = np.concatenate([[0.0], np.cumsum((tau[1:] + tau[:-1]) / 2 * np.diff(t))]) / J
+        return tau, m * L / 2 * np.sqrt((tau / J) ** 2 + rate**4)
+
+    tau, force = closed_form(tt)
+    assert "estimated error at most 0.0001" in out
+    estimate = _number(r"hinge force ([\d.e+-]+) \(of the largest\)", out)
+    assert estimate <= 1e-4
+    assert _number(r"objective: ([\d.]+)", out) == pytest.approx(np.trapezoid(tau**2, tt), rel=1e-6)
+    rows = re.findall(r"t = ([\d.]+) s: torque ([+-][\d.]+) N m, hinge force ([\d.]+) N", out)
+    assert len(rows) == 5
+    for t, torque, hinge in rows:
+        k = int(round(float(t) / T * (len(tt) - 1)))
+        assert abs(float(torque) - tau[k]) <= estimate * tau_max + 1e-6, (t, torque, tau[k])
+        assert abs(float(hinge) - force[k]) <= estimate * force.max() + 1e-6, (t, hinge, force[k])
