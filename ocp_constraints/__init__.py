@@ -21,6 +21,7 @@ from .errors import (
     GaitError,
     ImplantGeometryError,
     InconsistentStateError,
+    JumpWindowWarning,
     KneeError,
     ModelError,
     MuscleDataError,
@@ -68,7 +69,7 @@ _PUBLIC = {
     "Robot": "mechanics.urdf_robot",
 }
 
-__all__ = sorted(_PUBLIC) + [name for name in dir() if name.endswith("Error")] + ["RunInterrupted", "__version__"]
+__all__ = sorted(_PUBLIC) + [name for name in dir() if name.endswith("Error")] + ["JumpWindowWarning", "RunInterrupted", "__version__"]
 
 
 def __getattr__(name: str):

@@ -50,6 +50,11 @@ class SimulationError(OcpConstraintsError, RuntimeError):
         self.partial = partial
 
 
+class JumpWindowWarning(UserWarning):
+    """Values read inside a located jump of the inputs and multipliers (``OCPSolution.interpolate``): there
+    they are only known at the points, and the error estimate does not cover them."""
+
+
 class SingularConfigurationError(ModelError):
     """An Euler-angle parameterization is at (or too near) its singularity."""
 

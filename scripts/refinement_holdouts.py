@@ -86,7 +86,7 @@ def true_errors(sol, ref: Reference, mesh, degrees, windows=()) -> dict:
         outside &= (f < lo) | (f > hi)
     out = {}
     for q, labels in names.items():
-        ours = np.array([sol.interpolate(n, t) for n in labels])
+        ours = np.array([sol.polynomial(n, t) for n in labels])
         left, right = (np.array([side[n] for n in labels]) for side in sides)
         scale = 1.0 if q == "states" else max(float(np.abs(left[:, inner]).max()), 1e-300)
         diff = np.minimum(np.abs(ours - left), np.abs(ours - right)).max(axis=0) / scale

@@ -48,7 +48,7 @@ def worst(sol, refs, ts, keep=None):
     """max over names and times of |sol - ref| (where keep), with the time and name where it sits."""
     best = (0.0, None, None)
     for name, ref in refs.items():
-        d = np.abs(np.asarray(sol.interpolate(name, ts)) - ref)
+        d = np.abs(np.asarray(sol.polynomial(name, ts)) - ref)
         if keep is not None:
             d = np.where(keep, d, 0.0)
         k = int(np.argmax(d))

@@ -31,7 +31,7 @@ def rel_err(sol, names_ref, times_sol, mask=None):
     scale = max(float(np.max(np.abs(r))) for r in names_ref.values())
     worst, where, who = 0.0, None, None
     for n, ref in names_ref.items():
-        val = sol.interpolate(n, times_sol)
+        val = sol.polynomial(n, times_sol)
         d = np.abs(val - ref)
         if mask is not None:
             d = np.where(mask, d, 0.0)
@@ -44,7 +44,7 @@ def rel_err(sol, names_ref, times_sol, mask=None):
 def abs_err(sol, names_ref, times_sol):
     worst, where, who = 0.0, None, None
     for n, ref in names_ref.items():
-        d = np.abs(sol.interpolate(n, times_sol) - ref)
+        d = np.abs(sol.polynomial(n, times_sol) - ref)
         k = int(np.argmax(d))
         if d[k] > worst:
             worst, where, who = float(d[k]), float(times_sol[k]), n

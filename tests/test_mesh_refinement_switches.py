@@ -4,14 +4,16 @@ synthetic point values whose switch is known by construction."""
 from __future__ import annotations
 
 import math
+import warnings
 
 import casadi as ca
 import numpy as np
 import pytest
 
-from ocp_constraints import Model, OptimalControlProblem, joints
+from ocp_constraints import JumpWindowWarning, Model, OptimalControlProblem, joints
 from ocp_constraints.ocp.error_estimate import compare, names, sample_grid, values_at
 from ocp_constraints.ocp.mesh_refinement import refine, solve_to_tolerance
+from ocp_constraints.ocp.nonsmooth import merged_windows
 from ocp_constraints.ocp.schemes import Radau
 from ocp_constraints.ocp.switch_detection import activity, detect_switches, locate, split_points
 
@@ -86,11 +88,16 @@ def test_the_coarse_block_shows_one_jump_inside_an_interval_near_the_closed_form
     assert split_points(jumps, mesh, 1e-6, 1e-4, np.zeros(5)) == {w.interval: [w.fraction]}
 
 
-def test_refinement_puts_a_mesh_point_at_the_switch_and_its_estimate_bounds_the_closed_form_error():
+@pytest.fixture(scope="module")
+def refined_block():
+    return solve_to_tolerance(_block(), 1e-4, Radau(5, degree=3), max_refinements=8)
+
+
+def test_refinement_puts_a_mesh_point_at_the_switch_and_its_estimate_bounds_the_closed_form_error(refined_block):
     """At 1e-4 from Radau 3 on 5 intervals: met, a mesh point within 1e-4 of the horizon from the switch,
     few intervals (concentrated there, not globally fine), and the state estimate (the companion's
     difference, at least the switch's effect) above the true error and within 10x of it."""
-    sol = solve_to_tolerance(_block(), 1e-4, Radau(5, degree=3), max_refinements=8)
+    sol = refined_block
     mr = sol.mesh_refinement
     assert mr["met"], mr["message"]
     mesh = sol.transcription.scheme.mesh_fractions
@@ -99,6 +106,34 @@ def test_refinement_puts_a_mesh_point_at_the_switch_and_its_estimate_bounds_the_
     true, est = _closed_form_state_error(sol), mr["estimate"]["states"]
     assert est / 10 <= true <= est <= 1e-4
     assert mr["jump_windows"] and all(lo <= 1 / 3 <= hi for lo, hi in mr["jump_windows"][:1])
+
+
+def test_interpolating_the_input_across_its_located_jump_stays_within_its_bounds_and_warns(refined_block):
+    """Inside the jump window the closed form's F is 2 then -1: the collocation polynomial through the window's
+    points left [-1, 2] (-1.86 on this mesh); interpolate() keeps to the bounds, linear between the points,
+    and says so. Outside the window, and for the states everywhere, it is the polynomial, and no warning."""
+    sol = refined_block
+    [(lo, hi)] = sol.jump_windows()
+    assert lo < T_SWITCH < hi and hi - lo < 1e-3 * T_FINAL
+    inside = np.linspace(lo, hi, 101)
+    with pytest.warns(JumpWindowWarning, match=r"interpolate\('F'\).*jump window"):
+        F = sol.interpolate("F", inside)
+    assert F.min() >= -1.0 - 1e-6 and F.max() <= 2.0 + 1e-6
+    points = (sol.t >= lo) & (sol.t <= hi)
+    assert F.min() >= sol.sample("F")[points].min() and F.max() <= sol.sample("F")[points].max()
+    outside = np.concatenate([np.linspace(0.0, lo, 50), np.linspace(hi, sol.t_final, 50)])
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        assert np.array_equal(sol.interpolate("F", outside), sol.polynomial("F", outside))
+        assert np.array_equal(sol.interpolate("block.x", inside), sol.polynomial("block.x", inside))
+    x = np.where(inside <= T_SWITCH, inside**2,
+                 T_SWITCH**2 + 2 * T_SWITCH * (inside - T_SWITCH) - (inside - T_SWITCH) ** 2 / 2)
+    assert np.abs(sol.interpolate("block.x", inside) - x).max() <= sol.mesh_refinement["estimate"]["states"]
+
+
+def test_overlapping_jump_windows_are_recorded_once_at_full_precision():
+    assert merged_windows([(0.5, 0.6), (0.1, 0.2), (0.15, 0.25), (0.1, 0.2), (0.25, 0.3)]) == [(0.1, 0.3), (0.5, 0.6)]
+    assert merged_windows([(0.1234567891234, 0.2)]) == [(0.1234567891234, 0.2)]
 
 
 def test_a_clean_switch_at_a_mesh_point_has_no_effect_and_the_first_mesh_meets():

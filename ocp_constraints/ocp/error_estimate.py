@@ -106,11 +106,11 @@ def sample_grid(transcription, per_point: int = SAMPLES_PER_POINT) -> tuple[np.n
 
 def values_at(solution, fractions: np.ndarray) -> dict[str, np.ndarray]:
     """States (``nx x n``), multipliers and inputs of ``solution`` at normalized times ``fractions``,
-    queried by name (:meth:`OCPSolution.interpolate`): the same for a solution of the maximal NLP
+    queried by name (:meth:`OCPSolution.polynomial`): the same for a solution of the maximal NLP
     and of the joint-coordinate one, whose states and multipliers are the bodies' (the joints'
     multipliers from their bodies' balances, :mod:`~ocp_constraints.mechanics.generalized`)."""
     t = np.asarray(fractions, dtype=float) * solution.t_final
-    return {q: np.array([solution.interpolate(n, t) for n in labels]).reshape(len(labels), t.size)
+    return {q: np.array([solution.polynomial(n, t) for n in labels]).reshape(len(labels), t.size)
             for q, labels in names(solution).items()}
 
 

@@ -149,7 +149,7 @@ def from_solution(tr, solution) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
                              f"this problem's model '{pr.model.name}' has {list(ours)}; pass a solution of the same model")
     t = tr.fractions * solution.t_final
     names = pr.model.coordinate_names + pr.model.speed_names
-    X = np.array([solution.interpolate(n, t) for n in names])
-    L = np.array([solution.interpolate(f"{c}.lambda", t) for c in tr.eqs.constraint_names]).reshape(tr.layout.nc, -1)
-    W = np.array([solution.interpolate(n, t) for n in pr.model.inputs]).reshape(tr.layout.n_in, -1)
+    X = np.array([solution.polynomial(n, t) for n in names])
+    L = np.array([solution.polynomial(f"{c}.lambda", t) for c in tr.eqs.constraint_names]).reshape(tr.layout.nc, -1)
+    W = np.array([solution.polynomial(n, t) for n in pr.model.inputs]).reshape(tr.layout.n_in, -1)
     return X, L, W

@@ -195,9 +195,9 @@ class JointTranscription(Transcription):
             raise ModelError(f"warm_start: the solution is of model '{theirs.model.name}' with constraints "
                              f"{theirs.constraint_names}; pass a solution of this problem's model '{pr.model.name}'")
         t = self.fractions * solution.t_final
-        X = np.array([solution.interpolate(n, t) for n in pr.model.coordinate_names + pr.model.speed_names])
-        L = np.array([solution.interpolate(f"{c}.lambda", t) for c in e.constraint_names]).reshape(e.nc, -1)
-        W = np.array([solution.interpolate(n, t) for n in pr.model.inputs]).reshape(e.inputs.numel(), -1)
+        X = np.array([solution.polynomial(n, t) for n in pr.model.coordinate_names + pr.model.speed_names])
+        L = np.array([solution.polynomial(f"{c}.lambda", t) for c in e.constraint_names]).reshape(e.nc, -1)
+        W = np.array([solution.polynomial(n, t) for n in pr.model.inputs]).reshape(e.inputs.numel(), -1)
         return self._from_maximal(X, L, W, solution.t_final)
 
     def _from_maximal(self, X: np.ndarray, L: np.ndarray, W: np.ndarray, t_final: float) -> np.ndarray:

@@ -7,6 +7,7 @@ points (mesh points and interior points, in time order).
 """
 from __future__ import annotations
 
+import warnings
 from dataclasses import dataclass, field
 
 import casadi as ca
@@ -14,7 +15,7 @@ import numpy as np
 
 from ..dynamics.result import Result
 from ..dynamics.trajectory import Trajectory
-from ..errors import ModelError
+from ..errors import JumpWindowWarning, ModelError
 
 
 @dataclass
@@ -85,20 +86,16 @@ class OCPSolution(Result):
         """A joint load moved to the material ``point`` at every point (eq. 33), samples x 3 each."""
         return self.trajectory.load_about(joint, point)
 
-    def interpolate(self, name: str, times) -> np.ndarray:
-        """A named quantity between points through each interval's collocation polynomial.
+    def polynomial(self, name: str, times) -> np.ndarray:
+        """A named quantity at ``times`` (s) through each interval's collocation polynomial, as it is.
 
         Radau: the Lagrange polynomial through the interval's points; trapezoidal and
         Hermite-Simpson: the same construction through their points (the state
-        polynomials of those schemes have the same degree).
+        polynomials of those schemes have the same degree). Warm starts and the error
+        estimate read this; a user reads :meth:`interpolate`, which does not overshoot
+        across a located jump.
         """
-        times = np.atleast_1d(np.asarray(times, dtype=float))
-        slack = 1e-6 * self.t_final          # rounding (another solution's final time): held at the ends
-        outside = times[(times < -slack) | (times > self.t_final + slack)]
-        if outside.size:    # a polynomial extrapolated past the horizon is no solution value (it returned -4 for x)
-            raise ModelError(f"interpolate('{name}'): time(s) {outside[:3].tolist()} s lie outside the horizon "
-                             f"0 ... {self.t_final:g} s")
-        times = np.clip(times, 0.0, self.t_final)
+        times = self._within_horizon(name, times)
         # One matrix for all times (an hp mesh: each interval its own degree), in normalized time;
         # kept for the last times asked, since a warm start asks for every quantity at the same ones.
         key, cached = times.tobytes(), self.__dict__.get("_interpolation")
@@ -106,6 +103,58 @@ class OCPSolution(Result):
             cached = self.__dict__["_interpolation"] = (key, self.transcription.interpolation_matrix(times / self.t_final))
         return cached[1] @ self.sample(name)
 
+    def interpolate(self, name: str, times) -> np.ndarray:
+        """A named quantity at ``times`` (s) between the points: each interval's collocation polynomial
+        (:meth:`polynomial`), except for inputs and multipliers inside a jump window.
+
+        A refined solve (``solve(tolerance=...)``) records where a bang-bang input jumps between its
+        bounds (:meth:`jump_windows`). There an input and the multipliers jump, and the polynomial through
+        the window's points overshoots (a torque bounded by 0.9 read -1.47, a hinge force was off by the
+        largest load). Inside a window these are linear between the neighbouring points instead (within
+        their values: no overshoot), with an :class:`~ocp_constraints.errors.JumpWindowWarning` naming the
+        window; the estimate leaves these windows out for them. States are continuous there and keep
+        their polynomial.
+        """
+        values, inside, windows = self._interpolated(name, times)
+        if inside.any():
+            spots = ", ".join(f"{lo:.6g}-{hi:.6g} s" for lo, hi in windows[:3])
+            warnings.warn(
+                f"interpolate('{name}'): {int(inside.sum())} of the times lie in a jump window ({spots}), where "
+                f"the inputs and multipliers jump between their points (a bang-bang input's switch): there the "
+                f"values are linear between the neighbouring points, and the error estimate does not cover "
+                f"them. sample('{name}') gives the points themselves", JumpWindowWarning, stacklevel=2)
+        return values
+
+    def jump_windows(self) -> list[tuple[float, float]]:
+        """``(from, to)`` times (s) where a refined solve located a bang-bang input's jump, with a mesh
+        point inside: the mesh intervals its bracket touches (``mesh_refinement["jump_windows"]``, as
+        fractions of the horizon). Empty for a solve on a given mesh."""
+        record = self.mesh_refinement or {}
+        return [(lo * self.t_final, hi * self.t_final) for lo, hi in record.get("jump_windows", [])]
+
+    def _within_horizon(self, name: str, times) -> np.ndarray:
+        times = np.atleast_1d(np.asarray(times, dtype=float))
+        slack = 1e-6 * self.t_final          # rounding (another solution's final time): held at the ends
+        outside = times[(times < -slack) | (times > self.t_final + slack)]
+        if outside.size:    # a polynomial extrapolated past the horizon is no solution value (it returned -4 for x)
+            raise ModelError(f"interpolate('{name}'): time(s) {outside[:3].tolist()} s lie outside the horizon "
+                             f"0 ... {self.t_final:g} s")
+        return np.clip(times, 0.0, self.t_final)
+
+    def _interpolated(self, name: str, times) -> tuple[np.ndarray, np.ndarray, list]:
+        """:meth:`interpolate`'s values, which times fell inside a jump window, and the windows (s)."""
+        values = self.polynomial(name, times)
+        times = self._within_horizon(name, times)
+        windows = self.jump_windows()
+        inside = np.zeros(times.shape, bool)
+        traj = self.trajectory
+        if windows and (name in traj.multiplier_columns() or name in traj.input_columns()):
+            for lo, hi in windows:
+                inside |= (times > lo) & (times < hi)
+            if inside.any():
+                values = values.copy()
+                values[inside] = np.interp(times[inside], self.t, self.sample(name))
+        return values, inside, windows
 
     def violations(self, tol: float = 1e-6, top: int = 5) -> list[tuple[str, float, float]]:
         """The problem's rows this solution violates most, by name, worst first: ``(what, amount, t)``.
@@ -164,13 +213,13 @@ class OCPSolution(Result):
         step = dt or self.t_final / (20 * self.transcription.scheme.intervals)
 
         def inputs(t: float) -> np.ndarray:
-            return np.array([self.interpolate(n, min(t, self.t_final))[0] for n in names])
+            return np.array([self._interpolated(n, min(t, self.t_final))[0][0] for n in names])
 
         traj = simulate(eqs, self.X[: eqs.nq, 0], self.X[eqs.nq :, 0], self.t_final,
                         SimulationOptions(dt=step, projection_interval=step), inputs=inputs if names else None)
         state_names = eqs.model.coordinate_names + eqs.model.speed_names
         sim = np.hstack([traj.q, traj.u])
-        col = np.column_stack([self.interpolate(n, traj.t) for n in state_names])
+        col = np.column_stack([self.polynomial(n, traj.t) for n in state_names])
         deviation = np.abs(sim - col)
         return {"max_state_deviation": float(deviation.max()), "final_state_deviation": float(deviation[-1].max()),
                 "worst": state_names[int(deviation.max(axis=0).argmax())], "trajectory": traj}
