@@ -32,7 +32,7 @@ from pathlib import Path
 os.environ.setdefault("MPLBACKEND", "Agg")
 ROOT = Path(__file__).resolve().parent.parent
 
-MESHES = {"R3N20": (3, 20), "R7N5": (7, 5), "R3N10": (3, 10)}
+MESHES = {"R3N20": (3, 20), "R7N5": (7, 5), "R3N10": (3, 10), "R7N20": (7, 20)}
 
 
 def _load(path: Path, name: str):
@@ -132,6 +132,9 @@ CANDIDATES = {
     "speeds=rates+alpha_for_y": {"speeds": "rates", "ipopt": {"ipopt.alpha_for_y": "min-dual-infeas"}},
     "smoothstep+rates": {"speeds": "rates", "coordinates": "smoothstep"},
     "speeds=rest-to-rest rates": {"speeds": "smooth"},
+    "obj_scaling=1e2": {"ipopt": {"ipopt.obj_scaling_factor": 1e2}},
+    "obj_scaling=1e3": {"ipopt": {"ipopt.obj_scaling_factor": 1e3}},
+    "obj_scaling=1e4": {"ipopt": {"ipopt.obj_scaling_factor": 1e4}},
 }
 
 

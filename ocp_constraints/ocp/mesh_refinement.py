@@ -8,13 +8,13 @@
    tolerance of 1e-4 or below, where the first solution reaches a bound or a path constraint, the warm solves hold
    IPOPT's complementarity to 1e-14 (:func:`.mesh_solves.complementarity_tolerance`: the barrier rounds the corners
    there by more the shorter the intervals), with MUMPS's scaling off (:func:`.mesh_solves.without_mumps_scaling`),
-   and the first mesh is solved again so, warm from its cold solution (:func:`.mesh_solves.tightened`);
+   and the first mesh is solved again so, warm from its cold solution (:func:`.mesh_solves.tightened`); from the
+   first resolved estimate on, the warm solves scale the objective to a curvature of 1 (:mod:`.objective_scaling`);
 2. judge it against a *companion*: a solution at hand that is finer everywhere, if there is one
    (:func:`.mesh_companions.finer`: each interval halved at a degree at least its own, or kept at two
    degrees more; no solve; none where a junction lies inside an interval), else the same mesh with every degree
    raised by two and the intervals holding a located junction halved (:func:`.mesh_companions.companion_of`),
-   solved warm from 1
-   (on the first mesh: the *pilot*, every interval halved at :data:`MAX_DEGREE`, or cut finer where the
+   solved warm from 1 (on the first mesh: the *pilot*, every interval halved at :data:`MAX_DEGREE`, or cut finer where the
    first solution's own Legendre coefficients predict that a halving will not do, :func:`pilot_of`,
    :func:`.mesh_companions.pilot_pieces`);
    the estimate of each interval's error is :data:`.error_estimate.SAFETY` times their difference
@@ -250,7 +250,7 @@ def solve_to_tolerance(problem, tolerance, method=None, ipopt_options: dict | No
     at_hand: list = []
     score, best = np.inf, (np.inf, None, None, None, ())   # the last estimated solution's largest gated estimate; the lowest
     warm_options = {**WARM_IPOPT, **options}    # capped once the first mesh's cold solve has said how hard it is
-    fallback, previous = options, None          # previous: the last solution whose error was estimated
+    fallback, previous, scale = options, None, False     # previous: the last solution whose error was estimated
     for r in range(max_refinements + 1):
         entry = {"refinement": r, "intervals": scheme.intervals, "points": scheme.point_count,
                  "mesh": [float(m) for m in scheme.mesh_fractions], "degrees": [int(d) for d in _degrees(scheme)]}
@@ -261,7 +261,7 @@ def solve_to_tolerance(problem, tolerance, method=None, ipopt_options: dict | No
                 entry["solved_as_companion"] = True
             else:
                 sol, t_sol, c_sol = (_timed_solve(problem, scheme, options, None, progress, first) if warm is None else
-                                     _timed_solve(problem, scheme, warm_options, warm, progress, first, fallback))
+                                     _timed_solve(problem, scheme, warm_options, warm, progress, first, fallback, scale))
             if first is None:
                 first = sol.transcription
                 later = dict(options)    # the warm solves: IPOPT's complementarity held to the tolerance (mesh_solves)
@@ -274,7 +274,8 @@ def solve_to_tolerance(problem, tolerance, method=None, ipopt_options: dict | No
                 if compl is not None:       # the first mesh too, under the tightened complementarity (mesh_solves)
                     sol, t_more, c_more = tightened(sol, warm_options, progress)
                     t_sol, c_sol = t_sol + t_more, c_sol + c_more
-            entry.update(iterations=0 if solved is not None else _iterations(sol), time_s=t_sol, cpu_s=c_sol)
+            entry.update(iterations=0 if solved is not None else _iterations(sol), time_s=t_sol, cpu_s=c_sol,
+                         objective_scale=float(getattr(sol, "objective_scale", 1.0)))
             found = detect_switches(sol)        # bounds switching: jumps left out of the multipliers' estimate
             kinked = {w.interval for w in found if w.kind == "junction" and w.inside}
             judge = finer_at_hand(scheme, at_hand) if r > 0 and not kinked else None
@@ -287,7 +288,7 @@ def solve_to_tolerance(problem, tolerance, method=None, ipopt_options: dict | No
             else:
                 companion, t_comp, c_comp = _timed_solve(problem, pilot_of(scheme, pilot_pieces(sol, tol)) if r == 0
                                                          else companion_of(scheme, kinked),
-                                                         warm_options, sol, progress, first, fallback)
+                                                         warm_options, sol, progress, first, fallback, scale)
                 at_hand.append(companion)
             del at_hand[:-AT_HAND]
             entry["solves"] = (solved is None) + (judge is None)
@@ -306,6 +307,7 @@ def solve_to_tolerance(problem, tolerance, method=None, ipopt_options: dict | No
         total_cpu += c_sol + c_comp
         windows = jump_windows(found + detect_switches(companion), scheme.mesh_fractions)
         est = estimate_error(sol, companion, windows=windows, switches=found, floor=floor)
+        scale = scale or est.resolved       # warm solves scale the objective from the first resolved mesh on
         if judge is None:
             entry.update(companion_iterations=_iterations(companion), companion_time_s=t_comp, companion_cpu_s=c_comp)
         retried = [dict(x.warm_retry, of=of) for x, of, new in ((sol, "solution", solved is None),

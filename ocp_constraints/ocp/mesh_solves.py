@@ -96,7 +96,7 @@ def tightened(cold, options: dict, progress):
     iterations from a converged start. Its iterations count the cold solve's (:func:`iterations`)."""
     started, cpu = time.perf_counter(), time.process_time()
     try:
-        sol = cold.transcription.solve(options, cold, progress=progress)
+        sol = cold.transcription.solve(options, cold, progress=progress, scale_objective=True)
     except OCPSolveError as exc:
         if exc.solution is not None and exc.solution.status.startswith("interrupted"):
             raise
@@ -141,23 +141,27 @@ def build_mesh(problem, scheme: Radau, first):
     return problem.transcription(scheme, cache=False)
 
 
-def timed_solve(problem, scheme: Radau, ipopt_options: dict, warm_start, progress, first=None, fallback=None):
+def timed_solve(problem, scheme: Radau, ipopt_options: dict, warm_start, progress, first=None, fallback=None,
+                scale_objective: bool = False):
     """Build and solve one mesh; ``first``: an earlier transcription of the same problem. ``fallback``: IPOPT
     options to solve it again with where the warm solve (``warm_start`` given) fails (from the same start) or
-    ends at the acceptable level (from the problem's own guess; module notes). Returns the solution, wall and
-    CPU seconds."""
+    ends at the acceptable level (from the problem's own guess; module notes). ``scale_objective``: the warm
+    solves (and the retry from the same start) scale the objective (:mod:`.objective_scaling`). Returns the
+    solution, wall and CPU seconds."""
     started, cpu = time.perf_counter(), time.process_time()
     tr = build_mesh(problem, scheme, first)
+    warm = warm_start is not None
+    scaled = warm and scale_objective
     try:
         try:
-            sol = tr.solve(ipopt_options, warm_start, progress=progress)
+            sol = tr.solve(ipopt_options, warm_start, progress=progress, scale_objective=scaled)
         except OCPSolveError as exc:
             failed = exc.solution
             if fallback is None or failed is None or failed.status.startswith("interrupted"):
                 raise
-            sol = tr.solve(fallback, warm_start, progress=progress)
+            sol = tr.solve(fallback, warm_start, progress=progress, scale_objective=scaled)
             sol.warm_retry = {"status": failed.status, "iterations": failed.iterations}
-        if sol.status == ACCEPTABLE and warm_start is not None and fallback is not None:
+        if sol.status == ACCEPTABLE and warm and fallback is not None:
             sol = _converged_from_guess(tr, sol, fallback, progress)
     finally:
         elapsed, cpu_used = time.perf_counter() - started, time.process_time() - cpu

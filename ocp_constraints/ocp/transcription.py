@@ -38,6 +38,7 @@ from .bounds import variable_bounds
 from .guess import consistent_guess, from_solution
 from .interpolation import interpolation_matrix
 from .layout import Layout
+from .objective_scaling import OPTION as OBJECTIVE_SCALING, objective_scale
 from .progress import IterationMonitor, stop_on_signals
 from .solution import OCPSolution
 from .solver_threads import ipopt_solver
@@ -229,8 +230,15 @@ class Transcription(ElementKinds):
         leaves out coordinates or multipliers computes them here, also for a failed solve's last iterate)."""
         return sol
 
-    def solve(self, ipopt_options: dict, warm_start=None, progress: bool | None = None) -> OCPSolution:
+    def solve(self, ipopt_options: dict, warm_start=None, progress: bool | None = None,
+              scale_objective: bool = False) -> OCPSolution:
+        """Solve from ``warm_start`` (a solution) or the problem's guess. ``scale_objective``: IPOPT's
+        ``obj_scaling_factor`` from the objective's curvature at the start (:mod:`.objective_scaling`; the
+        refinement's warm solves), unless ``ipopt_options`` sets it."""
         opts = {**DEFAULT_IPOPT, **ipopt_options}
+        x0 = self.initial_guess() if warm_start is None else self.guess_from(warm_start)
+        if scale_objective and OBJECTIVE_SCALING not in ipopt_options:
+            opts[OBJECTIVE_SCALING] = objective_scale(self.block, x0)
         started = time.perf_counter()
         if self._solver is None or opts != self._solver_options:
             self._monitor = IterationMonitor(self.nlp["x"].numel(), self.nlp["g"].numel())
@@ -244,7 +252,6 @@ class Transcription(ElementKinds):
                 raise refused from None
             self._solver_options = opts
         setup = time.perf_counter() - started
-        x0 = self.initial_guess() if warm_start is None else self.guess_from(warm_start)
         lbx, ubx = self._bounds(x0)
         lbg, ubg = self._boundary_values()
         self._monitor.reset(progress, lbg, ubg)
@@ -260,6 +267,7 @@ class Transcription(ElementKinds):
         solution = self.completed(OCPSolution.from_vector(
             self, np.asarray(res["x"]).ravel(), stats, float(res["f"]),
             {"transcription": self.build_time, "solver_setup": setup, "solve": solve_time}))
+        solution.objective_scale = opts.get(OBJECTIVE_SCALING, 1.0)
         if not stats.get("success", False):
             raise OCPSolveError(
                 f"IPOPT did not solve '{self.problem.model.name}' with {self.scheme.label} "

@@ -1,0 +1,45 @@
+"""The objective's scale in the warm solves of a mesh refinement (:mod:`.mesh_refinement`): IPOPT's
+``obj_scaling_factor`` chosen so that the objective's largest curvature at the start is 1.
+
+Why. An integral objective is a quadrature, ``sum_i w_i L(x_i, u_i)``: its second derivative in a point's
+variables carries that point's weight ``w_i``, a fraction of its interval's length. A refinement shortens the
+intervals, so the Lagrangian's Hessian shrinks with them while the constraint Jacobian does not, and the
+reduced Hessian of a fine mesh falls below the regularization IPOPT adds when its inertia test fails. Then
+IPOPT crawls: a newcomer's slider-crank (a closed loop, least ``int tau^2``, T = 0.5 s) on Radau 7 with
+20 intervals had reduced-Hessian eigenvalues 1e-9 to 2e-6 at its optimum, IPOPT regularized every iteration
+(``lg(rg)`` about -7) and took 143 iterations (205 in maximal coordinates, 128 s of CPU; 40 intervals: past
+400); its refinement to 1e-4 stalled after 58 s with its estimate rising from 1.2e-4 to 7.6e-3.
+
+IPOPT scales the objective *down* by itself where its gradient exceeds 100 (``nlp_scaling_max_gradient``),
+never up. Here it is scaled up: by ``1 / max_i |d^2 f / d z_i^2|`` at the start, no further than a gradient of
+:data:`MAX_GRADIENT` (IPOPT's own ceiling; an objective linear in some variable, a final time, has a gradient but
+little curvature), and never below 1. Only the warm solves: the cold solve of the first mesh keeps IPOPT's own
+scaling, because from a problem's rough guess a scaled objective took some of our problems to other local
+optima (``scripts/ocp_default_robustness.py --candidate obj_scaling=1e2``: the newcomer arm 14.68 for 10.40 on
+Radau 3 N = 20), while a warm solve starts at the previous mesh's optimum.
+"""
+from __future__ import annotations
+
+import casadi as ca
+import numpy as np
+
+OPTION = "ipopt.obj_scaling_factor"
+# IPOPT's own ceiling on a scaled gradient (nlp_scaling_max_gradient's default): the scaled objective's gradient
+# at the start is kept below it.
+MAX_GRADIENT = 100.0
+
+
+def objective_scale(block, x0: np.ndarray) -> float:
+    """The factor for IPOPT's ``obj_scaling_factor`` at the start ``x0`` of the NLP ``block`` (a
+    :class:`.nlp_assembly.BlockNLP`): ``1 / max |diag Hessian of f|``, at most ``MAX_GRADIENT / max |grad f|``,
+    at least 1 (module notes); 1 where the objective has no curvature."""
+    hessian = block.hess_lag(x0, [], 1.0, np.zeros(block.m))     # the Lagrangian's, every multiplier zero
+    top = float(np.abs(np.asarray(ca.DM(ca.diag(hessian)))).max(initial=0.0))
+    if not np.isfinite(top) or top <= 0.0:
+        return 1.0
+    scale = 1.0 / top
+    gradient = float(np.abs(np.asarray(block.grad_f(x0, [])[1])).max(initial=0.0))
+    if np.isfinite(gradient) and gradient > 0.0:
+        scale = min(scale, MAX_GRADIENT / gradient)
+    return max(1.0, scale)
+
