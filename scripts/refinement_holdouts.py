@@ -182,7 +182,7 @@ def refined_run(name: str, tolerance: float, experiment: str | None = None) -> d
             "refinements": rec["refinements"], "solves": int(sum(h.get("solves", 0) for h in hist)),
             "iterations": int(sum(h.get("iterations", 0) + h.get("companion_iterations", 0) for h in hist)),
             "per_mesh": [(h["points"], h.get("iterations", 0), h.get("companion_iterations"),
-                          {q: h["estimate"].get(q) for q in ("states", "multipliers")}) for h in hist],
+                          {q: h.get("estimate", {}).get(q) for q in ("states", "multipliers")}) for h in hist],
             "intervals": len(mesh) - 1, "points": hist[-1]["points"], "degrees": [min(degrees), max(degrees)],
             "widths": [float(np.diff(mesh).min() * T), float(np.diff(mesh).max() * T)],
             "short": _short_intervals(mesh, T), "switch_gap": nearest, "windows": windows,
@@ -407,7 +407,8 @@ def main(argv=None) -> None:
                             f"{tru['multipliers_at']:.4g} s (multipliers), {tru['inputs_at']:.4g} s (inputs); "
                             f"normal load off M g by {row['normal_force_error']:.1e} N; per mesh (points, iterations, "
                             f"companion iterations, estimate states / multipliers): "
-                            + "; ".join(f"{p}, {i}, {c}, {e['states']:.1e} / {e['multipliers']:.1e}"
+                            + "; ".join(f"{p}, {i}, {c}, " + (f"{e['states']:.1e} / {e['multipliers']:.1e}"
+                                                               if e.get("states") is not None else "not solved")
                                         for p, i, c, e in row["per_mesh"])
                             + "; switches located on the final solution (kind, bound, at s, bracket s, effect): "
                             + ("; ".join(f"{k}, {q}, {a:.5g}, {b[0]:.5g}-{b[1]:.5g}, {e:.1e}" for k, q, a, b, e in row["located"])
