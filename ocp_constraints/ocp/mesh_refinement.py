@@ -67,6 +67,7 @@ import numbers
 import numpy as np
 
 from ..errors import ModelError, OCPSolveError
+from .bound_overshoot import name_overshoots
 from .error_estimate import UNRESOLVED_OBJECTIVE, UNRESOLVED_STATE, estimate_error
 from .legendre_decay import DECAY_LIMIT, legendre_decay
 from .mesh_companions import (MAX_DEGREE, _degrees, _ends, as_fine, companion_of, finer, finer_at_hand,
@@ -83,8 +84,7 @@ MIN_DEGREE, MAX_REFINEMENTS = 3, 10
 # and the solution returned are then that much larger; where solve time grows like the points, the saved solve pays for
 # ~1.8x): 1.5 keeps a margin, and a non-smooth solution (short intervals at a switch) is not traded for a finer mesh.
 SNAP_POINTS = 1.5
-ROUGH_MIN = 1e-3        # fraction of the horizon below which a rough interval is not halved (refine)
-GATED = ("states", "multipliers")
+ROUGH_MIN, GATED = 1e-3, ("states", "multipliers")    # ROUGH_MIN: fraction of the horizon below which a rough interval is not halved
 # The first mesh. Degree 5 rather than 3 (scripts/refinement_robustness.py, results/bench/refinement_start.md): at
 # 1e-3 the 21 problems met both ways end on as few points or fewer on 18 (7,053 points against 8,861) for 29% less
 # CPU; at 1e-5, on 11 of 12, for 24% more CPU (the ball-and-socket reach and the quadrotor); on degree 3 the first
@@ -395,6 +395,6 @@ def solve_to_tolerance(problem, tolerance, method=None, ipopt_options: dict | No
             parents = {_ends(a, b): float(ratio[min(np.searchsorted(mesh, (a + b) / 2, side="right") - 1, len(ratio) - 1)])
                        for a, b in zip(new.mesh_fractions[:-1], new.mesh_fractions[1:])}
         scheme, warm = new, companion
-    sol = lowest_estimate(record, sol, score, best, tol)    # "not met": the refinement's best solution, not its last
+    sol = name_overshoots(lowest_estimate(record, sol, score, best, tol), record, tol)   # best, not last; bounds
     sol.mesh_refinement = record
     return sol
