@@ -135,6 +135,9 @@ CANDIDATES = {
     "obj_scaling=1e2": {"ipopt": {"ipopt.obj_scaling_factor": 1e2}},
     "obj_scaling=1e3": {"ipopt": {"ipopt.obj_scaling_factor": 1e3}},
     "obj_scaling=1e4": {"ipopt": {"ipopt.obj_scaling_factor": 1e4}},
+    # The refinement's warm-solve rule (ocp/objective_scaling.py) applied to the cold solve: 1 / the objective's
+    # largest curvature at the problem's own guess.
+    "obj_scaling=curvature": {"objective_scale": True},
 }
 
 
@@ -213,6 +216,11 @@ def run_once(name: str, mesh: str, coordinates: str, candidate: str) -> dict:
         if CANDIDATES[candidate].get("coordinates") == "smoothstep":
             _smoothstep_guesses(problem)
         row["nlp"] = problem.nlp_coordinates
+        if CANDIDATES[candidate].get("objective_scale"):
+            from ocp_constraints.ocp.objective_scaling import OPTION, objective_scale
+
+            tr = problem.transcription(oc.Radau(N, degree=degree))
+            options[OPTION] = row["objective_scale"] = objective_scale(tr.block, tr.initial_guess())
         sol = problem.solve(oc.Radau(N, degree=degree), options, progress=False)
         row.update(success=bool(sol.success), status=sol.status, iterations=int(sol.iterations),
                    objective=float(sol.objective))
