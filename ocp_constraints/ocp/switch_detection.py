@@ -296,11 +296,13 @@ def detect_switches(solution) -> list[Switch]:
                 # scripts/refinement_holdouts.py, its switch at T/2 on every mesh: the trapezoids across the gap
                 # made an "effect" of 6.9e-2 m/s where the true state error was 4e-9).
                 at, effect = float(mesh[k]), 0.0
-            elif kind == "junction" and source != "input":
-                # A path constraint's or a state bound's kink, now located where its approach meets the bound
-                # (to 2e-6 of the horizon on the speed-limited block of tests/test_refinement_junctions.py): the
-                # accelerations are continuous there, and a jump's effect (their change across the bracket times
-                # its distance from a mesh point) made the states' estimate 15x their true error.
+            elif kind == "junction":
+                # A kink (an input's, a path constraint's or a state bound's), located where its approach meets the
+                # bound (to 2e-6 of the horizon on the speed-limited block of tests/test_refinement_junctions.py):
+                # the accelerations are continuous there, and a jump's effect (their change across the bracket times
+                # its distance from a mesh point) made the states' estimate 15x their true error (that block), and
+                # 12-100x on an input's junctions (the fourth newcomer's least-time arm, results/bench/
+                # refinement_newcomer4.md). The inputs' and multipliers' estimates keep the kink's floor (error_estimate).
                 effect = 0.0
             else:
                 effect = _effect(frac[pi : pj + 1] * T, D[:, pi : pj + 1], at * T, mesh, T) if D.size else 0.0
