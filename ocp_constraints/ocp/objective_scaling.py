@@ -13,10 +13,12 @@ IPOPT crawls: a newcomer's slider-crank (a closed loop, least ``int tau^2``, T =
 IPOPT scales the objective *down* by itself where its gradient exceeds 100 (``nlp_scaling_max_gradient``),
 never up. Here it is scaled up: by ``1 / max_i |d^2 f / d z_i^2|`` at the start, no further than a gradient of
 :data:`MAX_GRADIENT` (IPOPT's own ceiling; an objective linear in some variable, a final time, has a gradient but
-little curvature), and never below 1. Only the warm solves: the cold solve of the first mesh keeps IPOPT's own
-scaling, because from a problem's rough guess a scaled objective took some of our problems to other local
-optima (``scripts/ocp_default_robustness.py --candidate obj_scaling=1e2``: the newcomer arm 14.68 for 10.40 on
-Radau 3 N = 20), while a warm solve starts at the previous mesh's optimum.
+little curvature), and never below 1. Only the warm solves from the refinement's first resolved estimate on, which
+start at an optimum of a mesh close to theirs. From a problem's rough guess a scaled objective took some of our
+problems to other local optima (``scripts/ocp_default_robustness.py --candidate obj_scaling=1e2 obj_scaling=curvature``:
+the newcomer arm 14.68 for 10.40 on Radau 3 N = 20; with this rule 7 of 36 runs elsewhere, 2 of them worse), and so
+did a warm solve from an unresolved mesh, a cold solve in all but name (the suite's cart double pendulum's pilot:
+629 iterations to J = 2,778 for 162.4); ``results/bench/refinement_objective_scaling/``.
 """
 from __future__ import annotations
 
