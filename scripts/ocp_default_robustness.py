@@ -138,6 +138,10 @@ CANDIDATES = {
     # The refinement's warm-solve rule (ocp/objective_scaling.py) applied to the cold solve: 1 / the objective's
     # largest curvature at the problem's own guess.
     "obj_scaling=curvature": {"objective_scale": True},
+    # MUMPS's fill-reducing ordering (IPOPT's default 7 lets MUMPS choose; on the walker in maximal coordinates it chose an
+    # ordering whose factorizations took 0.3 s each on 7,370 variables, against 0.1 s with QAMD or AMD).
+    "mumps_pivot_order=0": {"ipopt": {"ipopt.mumps_pivot_order": 0}},
+    "mumps_pivot_order=6": {"ipopt": {"ipopt.mumps_pivot_order": 6}},
 }
 
 

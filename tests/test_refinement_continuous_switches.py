@@ -10,7 +10,7 @@ import casadi as ca
 import numpy as np
 
 from ocp_constraints import Model, OptimalControlProblem, Radau, joints
-from ocp_constraints.ocp.switch_detection import activity, bounded_quantities, locate
+from ocp_constraints.ocp.switch_detection import ACTIVE, TIGHT, activity, bounded_quantities, locate
 
 
 def test_a_continuous_quantity_between_its_bounds_has_two_junctions_where_it_leaves_and_reaches_them():
@@ -124,3 +124,24 @@ def test_a_position_bound_reached_with_zero_speed_and_acceleration_is_found_wher
     assert s[25] == 1 and s[24] == 0
     [(at, kind, i, j)] = locate(t, x, s, -1.0, wall, eps, jumps=False, through_active=True)
     assert kind == "junction" and abs(at - 3 * wall) < 1e-9 and t[i] <= at <= t[j]
+
+
+def test_a_position_bound_approached_over_the_activity_threshold_is_found_through_the_approachs_own_points():
+    """A position bound reached with zero speed whose approach is not a pure cube: the distance
+    d = 1.7 (t1 - t)^3 (1 + 20 (t1 - t)), points 5 ms apart, held at 1.5e-10 past t1 (as IPOPT holds it). Within
+    the activity threshold (2e-3 of the scale, 3.1e-3 rad here) the approach counts as active for ~0.09 s
+    before t1, and the cube root's line through the free points beyond reaches the bound 17 ms early; drawn
+    through the approach's own points still more than ``tight`` off the bound (TIGHT / ACTIVE of the threshold), it
+    is found within 2.5 ms (a fifth newcomer's arm angle bound: 4.5 ms late before, an interval past the kink,
+    0.1 ms after; results/bench/refinement_newcomer5.md)."""
+    bound, t1 = -1.55, 1.2317
+    t = np.round(np.arange(1.0, 1.6001, 0.005), 12)
+    distance = np.where(t < t1, 1.7 * (t1 - t) ** 3 * (1 + 20 * (t1 - t)), -1.5e-10)
+    v = bound - distance
+    s, eps = activity(v, -np.inf, bound)
+    assert s[t.searchsorted(1.15)] == 1                     # "active" 80 ms before the junction
+    [(far, _, _, _)] = locate(t, v, s, -np.inf, bound, eps, jumps=False, through_active=True)
+    [(at, kind, i, j)] = locate(t, v, s, -np.inf, bound, eps, jumps=False, through_active=True,
+                                tight=eps * TIGHT / ACTIVE)
+    assert abs(far - t1) > 0.01
+    assert kind == "junction" and abs(at - t1) < 2.5e-3 and t[i] <= at <= t[j]

@@ -26,12 +26,14 @@ the activity changes between two neighbouring points the switch is located betwe
   mixed constraint's slack grows linearly away from its junction), for its square root (a speed
   limit, or a load that follows the speeds, leaves its bound tangentially) or for its cube root (a
   position bound reached with zero speed and acceleration, Bryson and Denham's wall), whichever the third
-  nearest lies on most closely (:func:`_junction`), anywhere back along the run of points counted
-  active (within the activity threshold a tangential approach looks active early).
+  nearest lies on most closely (:func:`.switch_location._junction`), anywhere back along the run of points counted active
+  (within the activity threshold a tangential approach looks active early: a continuous quantity's line is
+  drawn through the approach's points there too, :func:`.switch_location._approach`).
 
-A switch located in the first half of the gap between an interval's start and its first collocation
-point is *at the mesh point*: Radau's inputs at the mesh point are the interval before's, so a jump
-exactly at a mesh point shows as a clean change there. Any other switch lies *inside* its interval.
+A switch in the first half of the gap between an interval's start and its first collocation point is *at
+the mesh point* (Radau's inputs there are the interval before's: a jump exactly at it shows as a clean
+change); so is a junction in the last half of the gap before the interval's end (both polynomials reach a
+kink at a mesh point). Any other switch lies *inside* its interval.
 """
 from __future__ import annotations
 
@@ -40,32 +42,25 @@ from dataclasses import dataclass
 import casadi as ca
 import numpy as np
 
+from .switch_location import JUMP_SPAN, locate  # noqa: F401 (JUMP_SPAN: its callers read it here)
+
 # A value within this fraction of the quantity's scale (the larger of its finite bounds' magnitudes and
 # its span over the horizon) of a bound is active. IPOPT's interior point leaves a bound by mu / lambda,
 # larger where the multiplier is small near a switch (the minimum-time swing-up's torque: 4.996 at a
 # bound of 5 next to the switch, 4e-4 of its span of 10); a free value half-way (0.28) is far from it.
 ACTIVE = 2e-3
-# A free run beside one bound is an arc (two junctions) only if it leaves the bound by more than this
-# many activity thresholds (:func:`locate`).
-ARC = 10.0
 # Within this fraction of the scale a bound is held tightly; between TIGHT and ACTIVE loosely (_loose).
 TIGHT = 1e-5
 # Fraction of the horizon below which an interval is not split at a junction (split_points).
 JUNCTION_MIN = 1e-3
-# Whether junctions (kinks) split intervals too. Measured, they do not pay yet: the walker at 1e-4 took
-# 14 solves to 617 points, 136 s CPU (11 solves to 323 points, 69 s without), the rolling-disk drive at
-# 1e-4 ended in IPOPT's Restoration_Failed on 51 intervals, the four-bar was still at 3.2e-4 (states) and
-# 1.4e-3 (multipliers) after 3 refinements, 256 intervals, 145 s CPU; jumps do pay (split_points).
+# Whether junctions (kinks) split intervals too. Measured, they do not pay yet: the walker at 1e-4 took 14 solves to
+# 617 points, 136 s CPU (11 to 323, 69 s without), the rolling-disk drive at 1e-4 ended in IPOPT's Restoration_Failed
+# on 51 intervals, the four-bar was at 3.2e-4 / 1.4e-3 after 3 refinements, 145 s CPU; jumps do pay (split_points).
 SPLIT_JUNCTIONS = False
 # A junction closer than this fraction of its interval to one of the interval's ends is at that mesh point.
 JUNCTION_NEAR = 0.05
 # Switches of several quantities closer than this fraction of their interval are one switch.
 MERGE = 0.02
-# A free run of an input between its two bounds is one jump (smeared by the NLP) only if its points lie in at
-# most two mesh intervals or within this fraction of the horizon; else it is a continuous arc with a junction
-# at each end (minimum effort under a force limit, F = clip(a - b t, -U, U): a free arc over 0.8 of the horizon,
-# taken for a jump, left the inputs and multipliers out of their estimate there; scripts/refinement_holdouts.py).
-JUMP_SPAN = 0.01
 
 
 @dataclass(frozen=True)
@@ -123,120 +118,6 @@ def activity(values: np.ndarray, lower: float, upper: float) -> tuple[np.ndarray
     return np.where(values <= lower + eps, -1, np.where(values >= upper - eps, 1, 0)), eps
 
 
-def _junction(t: np.ndarray, v: np.ndarray, bound: float, active: int, free: list[int]) -> float:
-    """Where the free points ``free`` (nearest first) reach ``bound``, kept between the active point ``active``
-    and the nearest free point (their midpoint if the free points do not help). A quantity leaves a bound
-    with a slope (an input; its distance ``d`` from the bound linear in time) or tangentially (a speed
-    limit, a load that follows the speeds: ``d`` quadratic, ``sqrt(d)`` linear; a position bound reached with
-    zero speed and acceleration, ``d`` cubic, ``cbrt(d)`` linear); the line through the two nearest free points
-    is drawn for ``d``, ``sqrt(d)`` and ``cbrt(d)``, and the one on which the third nearest lies most closely is
-    taken (with two free points, ``d``'s). Drawn for ``d`` alone, a tangential approach reaches the bound early:
-    the hinge's speed limit of scripts/refinement_holdouts.py (Radau 5 to 7, 1e-3), at 0.625 s for 0.6438 s, a
-    mesh point before the kink's interval; drawn for ``sqrt(d)`` at most, Bryson-Denham's wall (junctions at 1/3
-    and 2/3 of the horizon) was located at 0.3033 and 0.6982, now 0.33333 and 0.66666."""
-    lo, hi = sorted((t[active], t[free[0]]))
-    if len(free) < 2:
-        return 0.5 * (lo + hi)
-    d = np.abs(v[free[:3]] - bound)
-    fits = []       # (how far the third point is off the line, relative; where the line reaches zero)
-    for y in (d, np.sqrt(d), np.cbrt(d)) if len(free) >= 3 else (d,):
-        if y[1] != y[0]:
-            slope = (y[1] - y[0]) / (t[free[1]] - t[free[0]])
-            at = t[free[0]] - y[0] / slope
-            off = abs(y[0] + slope * (t[free[2]] - t[free[0]]) - y[2]) / float(y.max()) if len(y) > 2 else 0.0
-            if np.isfinite(at):
-                fits.append((off, at))
-    return float(min(max(min(fits)[1], lo), hi)) if fits else 0.5 * (lo + hi)
-
-
-def _crossing(t: np.ndarray, v: np.ndarray, level: float, i: int, j: int) -> float:
-    """Where the piecewise-linear interpolation of points ``i..j`` first crosses ``level``."""
-    for a in range(i, j):
-        if (v[a] - level) * (v[a + 1] - level) <= 0 and v[a] != v[a + 1]:
-            return float(t[a] + (level - v[a]) / (v[a + 1] - v[a]) * (t[a + 1] - t[a]))
-    return 0.5 * float(t[i] + t[j])
-
-
-def _reach(s: np.ndarray, i: int, step: int) -> int:
-    """From the active point ``i``, the last point of its run of points active at the same bound, in direction ``step``."""
-    while 0 <= i + step < len(s) and s[i + step] == s[i]:
-        i += step
-    return i
-
-
-def _junction_switch(t: np.ndarray, v: np.ndarray, s: np.ndarray, bound: float, active: int, free: list[int],
-                     through_active: bool) -> tuple[float, str, int, int]:
-    """The junction between the active point ``active`` and the free run ``free`` (nearest first), as
-    :func:`locate` gives it: where :func:`_junction` puts it, and the two points around it (``through_active``
-    and behind ``active``, in its active run), else ``active`` and the nearest free point, in time order."""
-    step = 1 if free[0] > active else -1            # from the active run towards the free one
-    at = _junction(t, v, bound, _reach(s, active, -step) if through_active else active, free)
-    if through_active and (t[active] - at) * step > 0:
-        if step > 0:
-            k = int(np.flatnonzero(t <= at)[-1])
-            return at, "junction", k, k + 1
-        k = int(np.flatnonzero(t >= at)[0])
-        return at, "junction", k - 1, k
-    return (at, "junction", active, free[0]) if step > 0 else (at, "junction", free[0], active)
-
-
-def locate(t: np.ndarray, v: np.ndarray, s: np.ndarray, lower: float, upper: float,
-           eps: float, jumps: bool = True, intervals: np.ndarray | None = None,
-           through_active: bool = False) -> list[tuple[float, str, int, int]]:
-    """The switches between points ``t`` (in time order) of values ``v`` with activity ``s``:
-    ``(where, kind, i, j)``, the switch between points ``i`` and ``j`` (their activities differ). A run
-    of free points between the two bounds is one jump (bang-bang), however many points and intervals it
-    spans: on very short intervals next to a jump the NLP's inputs are nearly arbitrary, the objective
-    hardly depends on them. Only a quantity that can jump (``jumps``: an input, or a path constraint of
-    inputs or multipliers) jumps; a continuous one (a coordinate, a speed, a path constraint of those
-    alone: :func:`bounded_quantities`) crosses from one bound to the other along a free arc, two junctions
-    (a UR5 elbow's speed limit, +3.15 rad/s held over 0.06-0.23 of the horizon, then 2.86, 2.23, ... down
-    to -3.15 from 0.5 on: taken as a jump, its bracket was the whole free arc and its "effect", 5.6 rad/s,
-    the speeds' estimate at every mesh); between two neighbouring points at opposite bounds, one junction
-    at their middle (the arc between them is not resolved). With ``intervals`` (each point's mesh interval), a
-    free run of a quantity that can jump is one jump only where the NLP can have smeared one: its points in at
-    most two intervals, or within :data:`JUMP_SPAN` of the horizon (a run of very short intervals at a jump);
-    a longer run is a continuous arc between the bounds, two junctions (:data:`JUMP_SPAN`).
-    ``through_active``: a junction may lie anywhere back along the active run, not only between its last
-    point and the first free one, and the junction's bracket is then the two points around it. Free points
-    within the activity threshold of the bound count as active, so the last "active" point can lie past the
-    junction (the push clipped at F <= 5.4 N, refined to 1e-4: located at 0.0574 of the horizon for 0.05556,
-    an interval late, which left the kink's interval without its estimate's kink floor; now at 0.0555555;
-    a tangential approach, :func:`_junction`, counts as active even longer). A free run next to one bound
-    counts (two junctions) only if it leaves the
-    bound by more than :data:`ARC` times ``eps`` (the activity threshold): else the bound is held loosely,
-    IPOPT's ``mu / lambda`` where the bound's multiplier is small (on short intervals, whose multipliers
-    scale with their length, and next to a switch, where the switching function vanishes)."""
-    found, n, i = [], len(t), 0
-    # Each maximal run of free points, with its active neighbours (if any) on either side.
-    while i < n:
-        if s[i] != 0:
-            if i + 1 < n and s[i + 1] != 0 and s[i + 1] != s[i]:           # one bound straight to the other
-                found.append((0.5 * float(t[i] + t[i + 1]), "bang-bang" if jumps else "junction", i, i + 1))
-            i += 1
-            continue
-        j = i
-        while j + 1 < n and s[j + 1] == 0:
-            j += 1
-        left = i - 1 if i > 0 else None
-        right = j + 1 if j + 1 < n else None
-        between = left is not None and right is not None and s[left] == -s[right]
-        smeared = (intervals is None or len(np.unique(intervals[i : j + 1])) <= 2
-                   or t[j] - t[i] <= JUMP_SPAN)
-        if jumps and between and smeared:
-            found.append((_crossing(t, v, 0.5 * (lower + upper), left, right), "bang-bang", left, right))
-        # a continuous arc from one bound to the other, or a run that leaves its one bound for real: its junctions
-        elif between or np.abs(v[i : j + 1] - (lower if s[left if left is not None else right] < 0
-                                                else upper)).max() > ARC * eps:
-            run = list(range(i, j + 1))
-            for active, free in ((left, run), (right, run[::-1])):
-                if active is not None:
-                    bound = lower if s[active] < 0 else upper
-                    found.append(_junction_switch(t, v, s, bound, active, free, through_active))
-        i = j + 1
-    return found
-
-
 def _loose(v: np.ndarray, s: np.ndarray, i: int, step: int, tight: float, lower: float, upper: float) -> int:
     """From the active point ``i``, the farthest point in direction ``step`` up to which the values stay
     active at the same bound but further from it than ``tight``: IPOPT's interior point holds a bound
@@ -271,6 +152,7 @@ def detect_switches(solution) -> list[Switch]:
     mesh, frac = tr.scheme.mesh_fractions, tr.fractions
     D, T = np.asarray(solution.D, float), float(solution.t_final)
     first = frac[tr.offsets[:-1] + 1]              # each interval's first collocation point
+    last = frac[tr.offsets[1:] - 1]                # and its last before the mesh point that ends it
     # Each point's interval (a mesh point ends the interval before it, whose last collocation point it is).
     interval_of = np.clip(np.searchsorted(mesh, frac, side="left") - 1, 0, tr.scheme.intervals - 1)
     out = []
@@ -281,11 +163,15 @@ def detect_switches(solution) -> list[Switch]:
         idx = np.arange(0 if states_only else 1, len(v))
         if len(np.unique(s[idx])) < 2:
             continue
+        # A continuous quantity (a state, a path constraint of states) approaches its bound tangentially (_approach).
         for at, kind, i, j in locate(frac[idx], v[idx], s[idx], lo, hi, eps, jumps=not continuous,
-                                     intervals=interval_of[idx], through_active=True):
+                                     intervals=interval_of[idx], through_active=True,
+                                     tight=eps * TIGHT / ACTIVE if continuous else None):
             k = int(np.clip(np.searchsorted(mesh, at, side="right") - 1, 0, tr.scheme.intervals - 1))
-            # Before the middle of the gap to the first collocation point: at the mesh point.
-            inside = at - mesh[k] > 0.5 * (first[k] - mesh[k]) * (1.0 + 1e-9)
+            # Before the middle of the gap to the first collocation point: at the mesh point; a kink past the middle of
+            # the last gap, at the one after (Bryson-Denham's wall at 1e-6: tests/test_refinement_junctions.py).
+            inside = (at - mesh[k] > 0.5 * (first[k] - mesh[k]) * (1.0 + 1e-9)
+                      and (kind != "junction" or mesh[k + 1] - at > 0.5 * (mesh[k + 1] - last[k]) * (1.0 + 1e-9)))
             if kind == "bang-bang":     # the bracket of a jump takes in the points where its bounds are held loosely
                 tight = eps * TIGHT / ACTIVE
                 i, j = _loose(v[idx], s[idx], i, -1, tight, lo, hi), _loose(v[idx], s[idx], j, 1, tight, lo, hi)
