@@ -108,6 +108,18 @@ def test_refinement_puts_a_mesh_point_at_the_switch_and_its_estimate_bounds_the_
     assert mr["jump_windows"] and all(lo <= 1 / 3 <= hi for lo, hi in mr["jump_windows"][:1])
 
 
+def test_the_record_gives_each_located_switch_its_time_in_seconds(refined_block):
+    """``"switches_located"``: the push's jump from 2 N to -1 N, at Pontryagin's t1 = 1/sqrt(3) s to within the
+    mesh's resolution there (1e-4 of the horizon), in seconds and as a fraction of the horizon, and JSON-ready (summary.json)."""
+    import json
+
+    [switch] = refined_block.mesh_refinement["switches_located"]
+    assert switch["quantity"] == "F" and switch["kind"] == "bang-bang" and switch["source"] == "input"
+    assert abs(switch["t"] - T_SWITCH) < 1e-4 * refined_block.t_final
+    assert switch["t"] == pytest.approx(switch["fraction"] * refined_block.t_final)
+    json.dumps(switch)
+
+
 def test_interpolating_the_input_across_its_located_jump_stays_within_its_bounds_and_warns(refined_block):
     """Inside the jump window the closed form's F is 2 then -1: the collocation polynomial through the window's
     points left [-1, 2] (-1.86 on this mesh); interpolate() keeps to the bounds, linear between the points,

@@ -285,12 +285,12 @@ KINK_C = 0.25
 
 
 def floored_kinks(switches) -> list:
-    """The located switches whose interval's estimate :func:`_kink_floor` floors: junctions inside an interval, of an
-    input, a path constraint or a state's bound. A state's bound is reached tangentially, but its inputs and
-    multipliers may kink there all the same (a fifth newcomer's arm angle bound: torque and pin force; met at 1e-6
-    with the pin force's true error 2.12x the estimate while it was left out); where they do not, the floor, from
-    their measured slope change, is small."""
-    return [w for w in switches if w.kind == "junction" and w.inside]
+    """The located switches whose interval's estimate :func:`_kink_floor` floors: junctions of an input or a path
+    constraint inside an interval (a state's bound is reached tangentially: no floor; where its inputs and multipliers
+    kink all the same, a fifth newcomer's arm angle bound, the companion that halves the junction's interval sees it
+    once the junction is located in the right interval, :func:`.switch_location._approach`; a floor there too put
+    Bryson-Denham's push estimate at 3.1e-3 for a true 1.5e-7, its junction 6.7e-7 of the horizon from a mesh point)."""
+    return [w for w in switches if w.kind == "junction" and w.inside and w.source != "state"]
 
 
 def _kink_floor(solution, est, switches) -> None:
@@ -306,7 +306,7 @@ def _kink_floor(solution, est, switches) -> None:
     not met; ``results/bench/refinement_junction_experiments.md``); this floor falls with the interval. A path
     constraint's kink the same (the rod's hinge-force limit of the holdouts from Radau 5 N = 10 at 1e-3: the
     multipliers' true error was 2.0x the estimate before its junction was located inside its interval,
-    :func:`.switch_location._junction`, and floored). A state's bound the same (:func:`floored_kinks`)."""
+    :func:`.switch_location._junction`, and floored). Not a state's bound (:func:`floored_kinks`)."""
     kinks = floored_kinks(switches)
     if not kinks:
         return

@@ -77,7 +77,7 @@ from .mesh_solves import (COMPLEMENTARITY, MUMPS_SCALING, check_solver_tolerance
                           tightened, without_mumps_scaling, iterations as _iterations, timed_solve as _timed_solve)
 from .nonsmooth import MIN_INTERVAL, flag_nonsmooth, judged_smoothness, nonsmooth_splits
 from .schemes import Radau
-from .switch_detection import detect_switches, jump_windows, split_points, touched
+from .switch_detection import detect_switches, jump_windows, record_switches, split_points, touched
 
 MIN_DEGREE, MAX_REFINEMENTS = 3, 10
 # The pilot replaces the next mesh (one solve fewer) only if it has at most this many times its points (its companion
@@ -395,6 +395,6 @@ def solve_to_tolerance(problem, tolerance, method=None, ipopt_options: dict | No
             parents = {_ends(a, b): float(ratio[min(np.searchsorted(mesh, (a + b) / 2, side="right") - 1, len(ratio) - 1)])
                        for a, b in zip(new.mesh_fractions[:-1], new.mesh_fractions[1:])}
         scheme, warm = new, companion
-    sol = name_overshoots(lowest_estimate(record, sol, score, best, tol), record, tol)   # best, not last; bounds
+    sol = record_switches(name_overshoots(lowest_estimate(record, sol, score, best, tol), record, tol), record)
     sol.mesh_refinement = record
     return sol

@@ -63,14 +63,14 @@ def flag_nonsmooth(sol, tol: float, record: dict, smoothness: tuple, windows=())
     if not len(bad):
         return
     record["nonsmooth_intervals"] = [[float(mesh[k]), float(mesh[k + 1])] for k in bad]
-    spots = ", ".join(f"{mesh[k]:.4g}-{mesh[k + 1]:.4g}" for k in bad[:4])
+    spots = ", ".join(f"{mesh[k]:.6g}-{mesh[k + 1]:.6g}" for k in bad[:4])     # 4 digits read "0.398-0.398"
     record.update(met=False, message=record["message"] + (
         f"{', but' if record['message'].startswith('estimated') else '; and the estimate is'} not trusted: the inputs "
         f"or multipliers are not smooth on {len(bad)} interval(s), at fractions {spots} "
         f"of the horizon (a switch inside: their Legendre coefficients fall as slowly as a "
         f"step's, up to {smoothness[0][bad].max():.2f} of it); a higher degree resolves a jump no better, so the "
-        f"estimate is no upper bound there. Put a mesh point at the switch (Radau(mesh=...)) or accept the error "
-        f"near it"))
+        f"estimate is no upper bound there. Put a mesh point at the switch (Radau(mesh=...); the times of the "
+        f"switches located are in mesh_refinement['switches_located']) or accept the error near it"))
 
 
 def nonsmooth_splits(sol, tol: float, smoothness: tuple, windows=()) -> dict[int, list[float]]:
