@@ -129,17 +129,31 @@ def _loose(v: np.ndarray, s: np.ndarray, i: int, step: int, tight: float, lower:
     return i
 
 
-def _effect(t: np.ndarray, D: np.ndarray, at: float, mesh: np.ndarray, T: float) -> float:
-    """How far the speeds (m/s, rad/s; the NLP's) stray from a clean switch at ``at`` (s) across a bracket:
-    the largest ``|integral (u' - u'_clean) dt|`` from its first point ``t[0]`` (trapezoids on the points),
-    ``u'_clean`` the accelerations of the bracket's ends before and after ``at``; and, if ``at`` is no
-    mesh point, the jump of the accelerations times its distance from the nearest one (where a clean
-    jump at that mesh point would put it)."""
-    clean = np.where(t[None, :] < at, D[:, :1], D[:, -1:])
-    drift = np.concatenate([np.zeros((D.shape[0], 1)),
-                            np.cumsum(0.5 * (np.diff(t) * (D - clean)[:, 1:] + np.diff(t) * (D - clean)[:, :-1]), axis=1)], axis=1)
+def _effect(t: np.ndarray, D: np.ndarray, U: np.ndarray, at: float, mesh: np.ndarray, T: float) -> float:
+    """How far the speeds ``U`` (m/s, rad/s; the NLP's) stray from a clean switch at ``at`` (s) across a bracket:
+    the largest ``|u - u_clean|`` at its points, ``u_clean`` from the first point's speeds on with the accelerations
+    ``D`` of the bracket's ends before and after ``at`` (the NLP's own speeds: trapezoids of its accelerations across
+    a gap that holds the jump made an error of about the jump times half the gap); and, if ``at`` is no mesh point,
+    the jump of the accelerations times its distance from the nearest one (where a clean jump at that mesh point
+    would put it)."""
+    clean = U[:, :1] + D[:, :1] * (np.minimum(t, at) - t[0])[None, :] + D[:, -1:] * (np.maximum(t, at) - at)[None, :]
     misplaced = float(np.abs(D[:, -1] - D[:, 0]).max()) * float(np.abs(mesh * T - at).min())
-    return max(float(np.abs(drift).max()), misplaced)
+    return max(float(np.abs(U - clean).max()), misplaced)
+
+
+def _effective(ends: np.ndarray, D: np.ndarray, U: np.ndarray, at: float) -> float:
+    """Where the NLP's own states put a jump between the bracket's ends (s): the time of a clean switch between the
+    accelerations ``D`` at the two ends that changes the speed jumping most by as much as the NLP's speeds ``U`` do. The
+    crossing of the bounds' middle (``at``, kept if the ends do not decide) reads a value at a mesh point (8.77 between
+    bounds of 10 and -5) as half a step: on the asymmetric bang-bang block at 1e-4 it put the switch 3.3e-6 of the
+    horizon past the mesh point the NLP switches at, and that distance times the jump floored the states' estimate at
+    3.8e-5 for a true error of 2.2e-7."""
+    row = int(np.argmax(np.abs(D[:, 1] - D[:, 0])))
+    jump = D[row, 0] - D[row, 1]
+    if jump == 0.0:
+        return at
+    change = U[row, 1] - U[row, 0]
+    return float(np.clip(ends[0] + (change - D[row, 1] * (ends[1] - ends[0])) / jump, ends[0], ends[1]))
 
 
 def detect_switches(solution) -> list[Switch]:
@@ -149,7 +163,8 @@ def detect_switches(solution) -> list[Switch]:
     point there, its inputs are extrapolated and its multipliers follow from the acceleration level."""
     tr = solution.transcription
     mesh, frac = tr.scheme.mesh_fractions, tr.fractions
-    D, T = np.asarray(solution.D, float), float(solution.t_final)
+    D, X, T = np.asarray(solution.D, float), np.asarray(solution.X, float), float(solution.t_final)
+    U = X[X.shape[0] - D.shape[0]:]                # the speeds, whose rates D holds
     first = frac[tr.offsets[:-1] + 1]              # each interval's first collocation point
     # Each point's interval (a mesh point ends the interval before it, whose last collocation point it is).
     interval_of = np.clip(np.searchsorted(mesh, frac, side="left") - 1, 0, tr.scheme.intervals - 1)
@@ -187,7 +202,9 @@ def detect_switches(solution) -> list[Switch]:
                 # refinement_newcomer4.md). The inputs' and multipliers' estimates keep the kink's floor (error_estimate).
                 effect = 0.0
             else:
-                effect = _effect(frac[pi : pj + 1] * T, D[:, pi : pj + 1], at * T, mesh, T) if D.size else 0.0
+                effect = (_effect(frac[pi : pj + 1] * T, D[:, pi : pj + 1], U[:, pi : pj + 1],
+                                  _effective(frac[[pi, pj]] * T, D[:, [pi, pj]], U[:, [pi, pj]], at * T), mesh, T)
+                          if D.size else 0.0)
             out.append(Switch(float(at), k, bool(inside), name, kind, (float(frac[pi]), float(frac[pj])), effect, source))
     return sorted(out, key=lambda w: w.fraction)
 
