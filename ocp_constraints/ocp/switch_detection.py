@@ -283,7 +283,6 @@ def split_points(switches: list[Switch], mesh: np.ndarray, min_piece: float, tol
     return out
 
 
-
 def record_switches(solution, record: dict):
     """Put every switch located on ``solution`` (the one a refinement returns) in its ``record`` as
     ``"switches_located"``: quantity, kind (``"junction"`` or ``"bang-bang"``), source, time (s), fraction of the
