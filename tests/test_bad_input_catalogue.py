@@ -333,6 +333,19 @@ def redundant_with(extra: Callable):
     return run
 
 
+def redundant_ocp():
+    """A swing-up whose hinge also has a ball-and-socket: the optimal-control path (its start's projection met a
+    singular matrix and NumPy's bare LinAlgError, a sixth newcomer's four-bar closed by a second revolute)."""
+    model, body, A = hinged_rod()
+    joints.ball_and_socket(model, "ball", A)
+    model.add_torque("motor", body, ca.vertcat(0, 0, model.add_input("tau")))
+    problem = oc.OptimalControlProblem(model, t_final=1.0)
+    problem.initial({"rod.psi": 0.0, "rod.omega_z": 0.0})
+    problem.final({"rod.psi": 1.0, "rod.omega_z": 0.0})
+    problem.minimize_effort()
+    problem.solve(oc.Radau(5, degree=3))
+
+
 # -- the catalogue -----------------------------------------------------------------------------------------
 _S = "Silent wrong before"
 _R = "Raw error before"
@@ -567,6 +580,8 @@ CATALOGUE: dict[str, tuple[str, str, list[Case]]] = {
             "again", A.v[0], point=A)), E.RedundantConstraintsError, ("Drop 'again'", "or one of 'hinge.v1'")),
         Case("a revolute joint plus a ball-and-socket at the same point", redundant_with(
             lambda m, b, A: joints.ball_and_socket(m, "ball", A)), E.RedundantConstraintsError, ("Drop 'ball.v1', 'ball.v2', 'ball.v3'",)),
+        Case("the same in an optimal-control problem (solve)", redundant_ocp, E.RedundantConstraintsError,
+             ("Drop 'ball.v1', 'ball.v2', 'ball.v3'",)),
     ]),
     "cli_contract": ("the command line's contract: exit 2 and one line for bad input", _R, [
         Case("simulate a scene file whose build() divides by zero", scene_cli(

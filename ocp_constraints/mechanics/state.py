@@ -231,7 +231,13 @@ def _project(eqs: SystemEquations, q: np.ndarray, u: np.ndarray | None, t: float
     K[:n, :n], K[:n, n:], K[n:, :n] = M, G.T, G
     rhs = np.zeros(n + eqs.nc)
     rhs[n:] = -r
-    u_new = u_in + np.linalg.solve(K, rhs)[:n]
+    try:
+        u_new = u_in + np.linalg.solve(K, rhs)[:n]
+    except np.linalg.LinAlgError:
+        eqs.check_redundancy(q, t)      # names the constraints that repeat others, if that is why
+        raise ModelError(f"model '{eqs.model.name}': the speeds cannot be projected onto the constraints at t = {t:g} s "
+                         f"(the matrix [M, G^T; G, 0] is singular: a body without mass or inertia in a direction no "
+                         f"constraint holds, or a singular configuration of the constraints)") from None
     return q, u_new, drift_q, drift_u
 
 

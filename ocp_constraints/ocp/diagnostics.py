@@ -50,6 +50,9 @@ def check_problem(problem, method) -> Diagnostics:
     t0, tf = 0.0, float(problem.t_final)
     free = problem.free_initial_values
     q0, pos_dof = _positions(problem, problem.initial_values, t0, "initial", free)
+    # Constraints repeating others leave their multipliers undetermined: named here, not as a singular matrix of the
+    # guess's projection (a sixth newcomer's four-bar closed by a second revolute: numpy's LinAlgError, no name).
+    problem.eqs.check_redundancy(q0, t0)
     u_dof = _speeds(problem, q0, problem.initial_values, t0, "initial", free)
     if problem.final_values:
         qf, _ = _positions(problem, problem.final_values, tf, "final", None)
