@@ -28,6 +28,7 @@ from .errors import (
     NonAffineConstraintError,
     OCPSolveError,
     OcpConstraintsError,
+    QuaternionSignWarning,
     OsimModelError,
     RedundantConstraintsError,
     ResourceLimitError,
@@ -69,7 +70,8 @@ _PUBLIC = {
     "Robot": "mechanics.urdf_robot",
 }
 
-__all__ = sorted(_PUBLIC) + [name for name in dir() if name.endswith("Error")] + ["JumpWindowWarning", "RunInterrupted", "__version__"]
+__all__ = sorted(_PUBLIC) + [name for name in dir() if name.endswith(("Error", "Warning"))] + ["RunInterrupted",
+                                                                                              "__version__"]
 
 
 def __getattr__(name: str):

@@ -55,6 +55,11 @@ class JumpWindowWarning(UserWarning):
     they are only known at the points, and the error estimate does not cover them."""
 
 
+class QuaternionSignWarning(UserWarning):
+    """A quaternion's initial and final values on opposite sheets (``q0 . qf < 0``): ``qf`` and ``-qf`` are one
+    orientation, but the motion to ``qf`` turns a full turn more than the motion to ``-qf``."""
+
+
 class SingularConfigurationError(ModelError):
     """An Euler-angle parameterization is at (or too near) its singularity."""
 

@@ -4,6 +4,8 @@ so three or four given components solve (before, a silently rescaled quaternion 
 iteration limit; issue 13: problems not in the suite)."""
 from __future__ import annotations
 
+import warnings
+
 import casadi as ca
 import numpy as np
 import pytest
@@ -158,3 +160,25 @@ def test_the_rows_released_at_the_ends_are_the_given_quaternions_lengths(coordin
     np.testing.assert_allclose(g[rows], [X[at, 0] @ X[at, 0] - 1.0, X[at, -1] @ X[at, -1] - 1.0], rtol=1e-12)
     lbg, ubg = tr._boundary_values()
     assert np.all(np.isinf(lbg[rows])) and np.all(np.isinf(ubg[rows]))
+
+
+def test_a_final_quaternion_on_the_other_sheet_warns_with_both_rotations():
+    """-q is q's orientation, but the NLP's quaternion path is continuous and ends at the given sign: from the
+    identity, -TARGET needs the long way round (a sixth newcomer's rod: another motion, without a word). The
+    angles in the warning against the rotation tensor's own angle, acos((tr R - 1) / 2)."""
+    R = np.asarray(UnitQuaternion().rotation(ca.DM(TARGET)))
+    short = np.arccos((np.trace(R) - 1.0) / 2.0)
+    start = {"bob.qw": 1.0, "bob.qx": 0.0, "bob.qy": 0.0, "bob.qz": 0.0}
+    ocp = _spherical_pendulum()
+    ocp.initial(start)
+    ocp.final(dict(zip(("bob.qw", "bob.qx", "bob.qy", "bob.qz"), -np.asarray(TARGET))))
+    with pytest.warns(oc.QuaternionSignWarning, match=r"bob\.qw, bob\.qx, bob\.qy, bob\.qz.*opposite sheets") as seen:
+        check_problem(ocp, oc.Radau(4, degree=3))
+    text = str(seen[0].message)
+    assert f"at least {2 * np.pi - short:.3g} rad" in text and f"takes at least {short:.3g} rad" in text
+    same_sheet = _spherical_pendulum()
+    same_sheet.initial(start)
+    same_sheet.final(dict(zip(("bob.qw", "bob.qx", "bob.qy", "bob.qz"), TARGET)))
+    with warnings.catch_warnings():
+        warnings.simplefilter("error", oc.QuaternionSignWarning)
+        check_problem(same_sheet, oc.Radau(4, degree=3))
