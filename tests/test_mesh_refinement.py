@@ -500,3 +500,14 @@ def test_a_refinement_not_met_returns_its_lowest_estimate_and_says_so():
     record["met"] = False
     assert lowest_estimate(record, last, 1e-4, (3.5e-4, earlier, described, None, ()), 1e-4) is last
     assert lowest_estimate(record, last, 1.4e-3, (1.4e-3, last, described, None, ()), 1e-4) is last
+
+
+def test_each_history_entry_gives_its_meshs_objective_as_a_solve_of_that_mesh_alone_finds_it():
+    """A sixth newcomer could not tell from the record that two meshes had landed on different optima: each entry
+    now carries its solution's objective; the first mesh's against a cold solve of the same mesh."""
+    _, problem = build_task("pendulum", "swing_up")
+    mr = problem.solve(tolerance=1e-4).mesh_refinement
+    _, alone = build_task("pendulum", "swing_up")
+    first = alone.solve(Radau(mesh=tuple(mr["history"][0]["mesh"]), degree=5))
+    assert all(isinstance(h["objective"], float) for h in mr["history"])
+    assert mr["history"][0]["objective"] == pytest.approx(first.objective, rel=1e-8)

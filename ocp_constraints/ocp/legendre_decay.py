@@ -37,7 +37,7 @@ def _step_ratio(to_coefficients: np.ndarray) -> float:
     return float((a[:, -1] / a[:, 1:].max(axis=1)).min())
 
 
-def legendre_decay(solution) -> tuple[np.ndarray, np.ndarray]:
+def legendre_decay(solution, companion=None) -> tuple[np.ndarray, np.ndarray]:
     """Per interval, the largest over the inputs and over the multipliers of ``max |a_last| / max_{j >= 1} |a_j|``
     (maxima over the quantity's components, in its relative scale) divided by that of a unit step
     (:func:`_step_ratio`), ``a_j`` the Legendre coefficients of the solution's polynomial through the
@@ -50,7 +50,20 @@ def legendre_decay(solution) -> tuple[np.ndarray, np.ndarray]:
     degree: there a comparison with a higher degree (the companion of :func:`estimate_error`), which
     resolves the jump no better, is not an upper bound of the error (Liu, Hager and Rao 2015 use the
     same decay to tell smooth intervals from non-smooth ones). States are left out: at a switch of a
-    bang-bang input they are continuous with their first derivative, and their coefficients fall."""
+    bang-bang input they are continuous with their first derivative, and their coefficients fall.
+
+    ``companion`` (the solution's companion, on the same mesh at higher degrees or on a finer one): an interval is
+    read as not smooth only where the companion's intervals over it are not smooth either (the smaller of the two
+    readings). A jump's coefficients do not fall at any degree, so the companion sees it too; a smooth arc's fall
+    once there are enough of them, and three are not: a sixth newcomer's pendulum tracking a steep reference, its
+    hinge force turning with the rod on degree-3 intervals, read 0.64-1.74 of a step's where nothing switches, and
+    "met" was withdrawn at 1e-4 with its estimate a bound (``results/bench/refinement_newcomer6.md``, finding 1)."""
+    if companion is not None:
+        own, tail = legendre_decay(solution)
+        theirs = legendre_decay(companion)[0]
+        mesh, other = solution.transcription.scheme.mesh_fractions, companion.transcription.scheme.mesh_fractions
+        seen = np.array([theirs[(other[:-1] < b) & (other[1:] > a)].max(initial=0.0) for a, b in zip(mesh[:-1], mesh[1:])])
+        return np.minimum(own, seen), tail
     tr = solution.transcription
     labels = names(solution)
     out, tail = np.zeros(tr.scheme.intervals), np.zeros(tr.scheme.intervals)

@@ -275,7 +275,7 @@ def solve_to_tolerance(problem, tolerance, method=None, ipopt_options: dict | No
                     sol, t_more, c_more = tightened(sol, warm_options, progress)
                     t_sol, c_sol = t_sol + t_more, c_sol + c_more
             entry.update(iterations=0 if solved is not None else _iterations(sol), time_s=t_sol, cpu_s=c_sol,
-                         objective_scale=float(getattr(sol, "objective_scale", 1.0)))
+                         objective=float(sol.objective), objective_scale=float(getattr(sol, "objective_scale", 1.0)))
             found = detect_switches(sol)        # bounds switching: jumps left out of the multipliers' estimate
             kinked = {w.interval for w in found if w.kind == "junction" and w.inside}
             judge = finer_at_hand(scheme, at_hand) if r > 0 and not kinked else None
@@ -336,7 +336,7 @@ def solve_to_tolerance(problem, tolerance, method=None, ipopt_options: dict | No
             continue
         # Switches inside intervals (switch_detection): there the estimate is no bound; split at them.
         met = all(est.totals[q] <= tol for q in GATED)
-        smoothness = judged_smoothness(legendre_decay(sol), found)   # per interval, read three times below
+        smoothness = judged_smoothness(legendre_decay(sol, companion), found)   # per interval, read thrice below
         if score < best[0]:
             best = (score, sol, dict(refinements=r, **{k: entry[k] for k in ("mesh", "degrees", "estimate", "worst")}),
                     smoothness, windows)
@@ -358,7 +358,7 @@ def solve_to_tolerance(problem, tolerance, method=None, ipopt_options: dict | No
             record["rough_intervals"] = [[float(a), float(b)] for a, b, q in zip(mesh[:-1], mesh[1:], ratio)
                                          if q > 1.0 and (parents or {}).get(_ends(a, b), np.inf) < 10.0 * q]
             if record["rough_intervals"]:
-                spots = ", ".join(f"{a:.4g}-{b:.4g}" for a, b in record["rough_intervals"][:4])
+                spots = ", ".join(f"{a:.6g}-{b:.6g}" for a, b in record["rough_intervals"][:4])
                 record["message"] += (f"; the estimate stays above it on intervals that refinement does not improve "
                                       f"(a switch or a kink: inputs or multipliers jump or bend there), at fractions "
                                       f"{spots} of the horizon")
