@@ -122,3 +122,22 @@ def test_a_met_message_says_where_the_inputs_estimate_is_above_the_tolerance():
     torque = np.asarray(fine.interpolate("motor", t))
     error = np.max(np.abs(np.asarray(sol.interpolate("motor", t)) - torque)) / np.max(np.abs(torque))
     assert 1e-4 < error <= mr["estimate"]["inputs"]
+
+
+def test_a_returned_earlier_solution_is_described_once_not_beside_the_last_meshs_windows():
+    """A sixth newcomer's message named a jump window twice, the last mesh's and the returned solution's, with other
+    fractions: the last mesh's clauses go (they are kept under "last_mesh"), the returned one's stay."""
+    from types import SimpleNamespace
+
+    import numpy as np
+
+    from ocp_constraints.ocp.nonsmooth import flag_nonsmooth, unflagged
+
+    base = "refinement stalled: ... The solution with the lowest estimate is returned"
+    record = {"message": base, "met": False}
+    last = SimpleNamespace(transcription=SimpleNamespace(scheme=SimpleNamespace(mesh_fractions=np.array([0.0, 0.5, 1.0]))))
+    flag_nonsmooth(last, 1e-3, record, (np.array([0.9, 0.0]), np.array([1.0, 0.0])), windows=[(0.6, 0.7)])
+    assert "jump (bang-bang) within 1 window(s) at fractions 0.6-0.7" in record["message"]
+    assert "not trusted" in record["message"] and "0-0.5" in record["message"]
+    assert unflagged(record["message"]) == base
+    assert unflagged(base) == base

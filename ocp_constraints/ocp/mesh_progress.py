@@ -22,7 +22,7 @@ and then meet the tolerance.
 from __future__ import annotations
 
 from ..errors import OCPSolveError
-from .nonsmooth import flag_nonsmooth
+from .nonsmooth import flag_nonsmooth, unflagged
 
 STALL_GROWTH = 1.5      # a refinement that multiplied the points by at least this is judged by the rule
 # An earlier solution is returned instead of the last only where its estimate is lower by more than this factor: the
@@ -177,7 +177,8 @@ def lowest_estimate(record: dict, last, last_score: float, best: tuple, tol: flo
             record.setdefault("last_mesh", {})[key] = record.pop(key)
     record.update({k: v for k, v in described.items() if k != "refinements"})    # "refinements": how many were made
     record["returned_refinement"] = described["refinements"]
-    record["message"] = (record.get("message", "") + f"; returned: the solution of refinement {described['refinements']} "
+    # The last mesh's jump windows and untrusted intervals are under "last_mesh"; the message tells the returned one's.
+    record["message"] = (unflagged(record.get("message", "")) + f"; returned: the solution of refinement {described['refinements']} "
                          f"({len(described['degrees'])} intervals), the lowest estimate seen (states "
                          f"{described['estimate']['states']:.1e}, multipliers {described['estimate']['multipliers']:.1e}; "
                          f"the last mesh's: {was['states']:.1e}, {was['multipliers']:.1e})")

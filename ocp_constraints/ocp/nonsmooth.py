@@ -38,6 +38,16 @@ def merged_windows(windows) -> list[tuple[float, float]]:
     return [(lo, hi) for lo, hi in merged]
 
 
+# How flag_nonsmooth's clauses start in a message (unflagged cuts them off: the message of another solution).
+CLAUSES = ("; the inputs and multipliers jump (bang-bang) within ", ", but not trusted: ", "; and the estimate is not trusted: ")
+
+
+def unflagged(message: str) -> str:
+    """``message`` without what :func:`flag_nonsmooth` added to it (it adds at the end, so all from its first clause on)."""
+    cut = [message.find(c) for c in CLAUSES if c in message]
+    return message[: min(cut)] if cut else message
+
+
 def flag_nonsmooth(sol, tol: float, record: dict, smoothness: tuple, windows=()) -> None:
     """Withdraw "met" where the estimate cannot be trusted (and say so where it is not met either):
     intervals whose inputs or multipliers are not smooth (their Legendre coefficients fall no faster
