@@ -153,7 +153,10 @@ class OptimalControlProblem:
         self.minimize_integral(sum(self.quantity(n) ** 2 for n in names), weight, "effort")
 
     def minimize_load_effort(self, constraints: list[str], weights: list[float] | None = None) -> None:
-        """``int lambda^T W lambda dt`` over the named constraints (W diagonal)."""
+        """Add ``int sum_k w_k lambda_k^2 dt`` over the named scalar constraints (``model.describe()`` lists them, e.g.
+        ``"elbow.v1"``: a joint's force component along a fixed axis, N, or its moment component, N m; ``lambda`` of
+        eq. 26), weights ``w_k`` default 1 (per N^2 s or (N m)^2 s). The components' signs do not matter (squared).
+        For a joint's whole force vector use ``minimize_integral`` of ``|joint_force(channel)|^2``."""
         w = [1.0] * len(constraints) if weights is None else weights
         self.minimize_integral(sum(wi * self.multiplier(c) ** 2 for c, wi in zip(constraints, w)), 1.0, "load_effort")
 
