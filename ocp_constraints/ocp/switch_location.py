@@ -80,7 +80,10 @@ def _junction_switch(t: np.ndarray, v: np.ndarray, s: np.ndarray, bound: float, 
     step = 1 if free[0] > active else -1            # from the active run towards the free one
     if tight is not None:
         free = _approach(v, bound, active, free, step, tight)
-    at = _junction(t, v, bound, _reach(s, active, -step) if through_active else active, free)
+    # With one free point no line is drawn: the junction lies between it and its active neighbour, not half-way
+    # back along the active run (an input held on one bound and then the other across one free point, 0.34 of
+    # the horizon, was put at 0.17 and 0.66).
+    at = _junction(t, v, bound, _reach(s, active, -step) if through_active and len(free) >= 2 else active, free)
     if through_active and (t[active] - at) * step > 0:
         if step > 0:
             k = int(np.flatnonzero(t <= at)[-1])
