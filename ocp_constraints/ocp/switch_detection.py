@@ -166,10 +166,16 @@ def penalized_inputs(solution) -> set[str]:
     e = pr.eqs
     if not pr.integral_terms or not e.inputs.numel():
         return set()
-    integrand = sum(term.weight * term.expression for term in pr.integral_terms)
-    curvature = ca.diag(ca.hessian(integrand, e.inputs)[0])
+    # Built once per objective (kept on the problem; an edited objective has other terms, so another key).
+    key = tuple((id(term.expression), term.weight) for term in pr.integral_terms)
+    cached = pr.__dict__.get("_input_curvature")
+    if cached is None or cached[0] != key:
+        integrand = sum(term.weight * term.expression for term in pr.integral_terms)
+        curvature = ca.diag(ca.hessian(integrand, e.inputs)[0])
+        cached = pr.__dict__["_input_curvature"] = (key, ca.Function("curvature", [e.q, e.u, e.inputs, pr.lam, e.t],
+                                                                     [curvature]))
     traj, t = solution.trajectory, solution.t
-    f = ca.Function("curvature", [e.q, e.u, e.inputs, pr.lam, e.t], [curvature]).map(len(t))
+    f = cached[1].map(len(t))
     c = np.asarray(f(np.asarray(traj.q).T, np.asarray(traj.u).T, np.asarray(traj.inputs).T, np.asarray(traj.lam).T,
                      t[None, :])).reshape(e.inputs.numel(), len(t))
     return {name for name, row in zip(pr.model.inputs, c) if np.all(row > 0.0)}
@@ -189,8 +195,10 @@ def detect_switches(solution) -> list[Switch]:
     interval_of = np.clip(np.searchsorted(mesh, frac, side="left") - 1, 0, tr.scheme.intervals - 1)
     out = []
     bounds = getattr(tr, "user_problem", tr.problem).bounds
-    smooth = penalized_inputs(solution)
-    for name, v, lo, hi, states_only, continuous in bounded_quantities(solution):
+    quantities = bounded_quantities(solution)
+    # Only where an input is bounded (building the integrand's curvature costs ~1 ms a solution).
+    smooth = penalized_inputs(solution) if any(q[0] in solution.trajectory.eqs.model.inputs for q in quantities) else set()
+    for name, v, lo, hi, states_only, continuous in quantities:
         source = ("state" if states_only else "input") if name in bounds else "path"
         s, eps = activity(v, lo, hi)
         idx = np.arange(0 if states_only else 1, len(v))
