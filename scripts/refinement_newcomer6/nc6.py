@@ -10,7 +10,7 @@ sleigh_turn, track, track_steep), optionally with "@rDnN": refined from the mesh
 True errors: the library's polynomials (sol.interpolate) against the reference's interval polynomials (ref.evaluate)
 on a dense grid, 16 (env DENSE) points inside every interval of the library's final mesh, either side of every
 junction (the reference's and the library's located ones), plus the library's own points (sol.t;
-multipliers without t = 0). States: every body coordinate and speed the reference has (for the ball-and-socket rod
+multipliers without t = 0); env REF: compare with ref_REF.npz instead of ref_PROBLEM.npz. States: every body coordinate and speed the reference has (for the ball-and-socket rod
 the centre's position and velocity, the fixed-basis angular velocity and the quaternion), plus the body coordinates
 that stay 0 in a planar motion; multipliers: every multiplier channel (those that vanish included), relative to the
 library's own load scale history[-1]["load_scale"]. "at_points": the same at sol.t only.
@@ -18,14 +18,16 @@ library's own load scale history[-1]["load_scale"]. "at_points": the same at sol
 import json, os, resource, subprocess, sys, time
 import numpy as np
 
-HERE = os.path.dirname(os.path.abspath(__file__))
+# The folder of the check: its models.py, ref.py, ref_*.npz and results.jsonl (a later check runs this harness on
+# its own folder: scripts/refinement_newcomer7/nc7.py sets NEWCOMER_DIR).
+HERE = os.environ.get("NEWCOMER_DIR") or os.path.dirname(os.path.abspath(__file__))
 sys.path.insert(0, HERE)
 TOLS = ["1e-3", "1e-4", "1e-5", "1e-6"]
 CPU_CAP, WALL_CAP = 120, 300
 
 
 def load_ref(problem):
-    return np.load(os.path.join(HERE, f"ref_{problem}.npz"), allow_pickle=True)["ref"].item()
+    return np.load(os.path.join(HERE, f"ref_{os.environ.get('REF', problem)}.npz"), allow_pickle=True)["ref"].item()
 
 
 def errors(sol, ref, frac_grid):
@@ -42,7 +44,8 @@ def errors(sol, ref, frac_grid):
         out["per_state"][n] = float(abs(d[k]))
         if abs(d[k]) > out["states"]:
             out["states"] = float(abs(d[k])); out["where"]["states"] = (float(t[k]), n)
-    scale = float(sol.mesh_refinement["history"][-1]["load_scale"])
+    # the last history entry with a load scale (a failed last solve's entry has none)
+    scale = float(next(h["load_scale"] for h in reversed(sol.mesh_refinement["history"]) if "load_scale" in h))
     m = frac_grid > 0
     for n in list(ref["loads"]) + list(ref["zeros"]):
         lv = np.asarray(sol.interpolate(n + ".lambda", t[m]), float)
@@ -135,4 +138,5 @@ if __name__ == "__main__":
     if sys.argv[1] == "run":
         cmd_run(sys.argv[2], sys.argv[3])
     elif sys.argv[1] == "all":
-        cmd_all(sys.argv[2:] or ["fourbar", "sph", "sleigh", "track"])
+        import models
+        cmd_all(sys.argv[2:] or getattr(models, "DEFAULT", ["fourbar", "sph", "sleigh", "track"]))

@@ -1,7 +1,9 @@
 """Tables of results.jsonl (python report.py [FILE]), markdown to stdout."""
 import json, os, sys
 
-HERE = os.path.dirname(os.path.abspath(__file__))
+# The folder of the check (a later check runs this report on its own: scripts/refinement_newcomer7/report.py sets
+# NEWCOMER_DIR, and its models.py gives REPORT_NAMES).
+HERE = os.environ.get("NEWCOMER_DIR") or os.path.dirname(os.path.abspath(__file__))
 fn = sys.argv[1] if len(sys.argv) > 1 else os.path.join(HERE, "results.jsonl")
 recs = [json.loads(l) for l in open(fn)]
 f = lambda v, fmt=".1e": "-" if v is None else format(v, fmt)
@@ -18,6 +20,10 @@ NAMES = {"fourbar": "1. four-bar linkage, effort + ground pin O's load (closed c
          "track_fast": "4d. tracking a 6 Hz reference 0.3 sin(12 pi t), the torque bound never reached",
          "track_steep": "4b. tracking with a small effort weight (0.01) and |tau| <= 5: four arcs, steep torque between them",
          "track_steep@r3n40": "4c. the same refined from the mesh Radau 3 x 40 (solve(oc.Radau(40, degree=3), tolerance=tol))"}
+if os.environ.get("NEWCOMER_DIR"):
+    sys.path.insert(0, HERE)
+    import models
+    NAMES = models.REPORT_NAMES
 for p in NAMES:
     rs = [r for r in recs if r["problem"] == p]
     if not rs:

@@ -69,6 +69,7 @@ def load_arm(p):
     return pr
 
 
+DEFAULT = ["urdf_arm", "urdf_arm@r3n40", "load_arm"]      # what `python nc7.py all` runs without names
 VARIANTS = {
     "urdf_free": ("urdf_arm", ARM, {}),
     "urdf_arm": ("urdf_arm", dict(ARM, tau1_max=4.5), {}),
@@ -83,3 +84,9 @@ def variant(name):
 def build(name):
     base, p, kw = VARIANTS[name]
     return globals()[base](p, **kw)
+
+# The report's section titles (python report.py).
+REPORT_NAMES = {"urdf_arm@r3n40": "1. URDF two-link arm (arm2.urdf, oc.load_urdf), rest to rest, least effort, |shoulder.tau| <= 4.5 (one arc), refined from Radau 3 x 40",
+         "urdf_arm": "1b. the same from the default start (solve(tolerance=tol))",
+         "load_arm": "2. two-link arm by hand, min effort + 0.05 minimize_load_effort([elbow.v1, elbow.v2]), default start (the optimum it finds, objective 31.224)",
+         "load_arm@r5n40": "2b. the same refined from Radau 5 x 40 (the better optimum, objective 13.946)"}
