@@ -490,6 +490,9 @@ def test_a_refinement_not_met_returns_its_lowest_estimate_and_says_so():
     k = mr.get("returned_refinement", mr["refinements"])
     returned = min(largest) if RANKED * min(largest) < largest[-1] else largest[-1]
     assert max(mr["estimate"][q] for q in ("states", "multipliers")) == returned
+    # The multipliers' estimate is relative to the returned solution's load scale, given beside it (a seventh newcomer
+    # read history[-1]["load_scale"], absent where the last refinement failed).
+    assert mr["load_scale"] == mr["history"][mr.get("returned_refinement", mr["refinements"])]["load_scale"] > 0
     assert mr["history"][k]["mesh"] == mr["mesh"] and sol.transcription.scheme.intervals == len(mr["degrees"])
     if k != mr["refinements"]:
         assert f"returned: the solution of refinement {k}" in mr["message"]

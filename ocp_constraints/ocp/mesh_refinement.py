@@ -100,6 +100,7 @@ START = {"intervals": 10, "degree": 5}
 WARM_IPOPT = {"ipopt.mu_init": 1e-8, "ipopt.bound_push": 1e-9, "ipopt.bound_frac": 1e-9,
               "ipopt.slack_bound_push": 1e-2, "ipopt.slack_bound_frac": 1e-2}
 AT_HAND = 3              # solutions kept as possible judges of later meshes
+DESCRIBED = ("mesh", "degrees", "estimate", "worst", "load_scale")     # what the record says of the solution returned
 # A warm solve that takes more IPOPT iterations than this many times the first mesh's cold solve (and at least
 # WARM_MIN_ITER) has been misled by its start: WARM_IPOPT's small barrier parameter keeps IPOPT near the start's
 # active set. It is stopped there and solved again from the same start with IPOPT's own options
@@ -320,7 +321,7 @@ def solve_to_tolerance(problem, tolerance, method=None, ipopt_options: dict | No
         score = max(est.totals[q] for q in GATED) if est.resolved else np.inf
         ratio = est.refinement_ratio(tol, GATED)      # where the error is made (ErrorEstimate.refinement_ratio)
         record.update(mesh=entry["mesh"], degrees=entry["degrees"], estimate=entry["estimate"], worst=entry["worst"],
-                      total_time_s=total, total_cpu_s=total_cpu, refinements=r)
+                      load_scale=entry["load_scale"], total_time_s=total, total_cpu_s=total_cpu, refinements=r)
         if not est.resolved:
             # Guard: the two solutions are not one optimum at two resolutions (module notes, step 2).
             if r == max_refinements:
@@ -338,8 +339,7 @@ def solve_to_tolerance(problem, tolerance, method=None, ipopt_options: dict | No
         met = all(est.totals[q] <= tol for q in GATED)
         smoothness = judged_smoothness(legendre_decay(sol, companion), found)   # per interval, read thrice below
         if score < best[0]:
-            best = (score, sol, dict(refinements=r, **{k: entry[k] for k in ("mesh", "degrees", "estimate", "worst")}),
-                    smoothness, windows)
+            best = (score, sol, dict(refinements=r, **{k: entry[k] for k in DESCRIBED}), smoothness, windows)
         switches = split_points(found, scheme.mesh_fractions, MIN_INTERVAL, tol, ratio) or (
             nonsmooth_splits(sol, tol, smoothness, windows) if met and r < max_refinements else {})
         entry["switches"] = [f for k in sorted(switches) for f in switches[k]]
