@@ -493,6 +493,9 @@ def test_a_refinement_not_met_returns_its_lowest_estimate_and_says_so():
     # The multipliers' estimate is relative to the returned solution's load scale, given beside it (a seventh newcomer
     # read history[-1]["load_scale"], absent where the last refinement failed).
     assert mr["load_scale"] == mr["history"][mr.get("returned_refinement", mr["refinements"])]["load_scale"] > 0
+    # ... which is the largest load (t > 0) of a companion of the returned solution: the block's own, to its error
+    largest = max(float(np.abs(np.asarray(sol.sample(n))[1:]).max()) for n in names(sol)["multipliers"])
+    assert mr["load_scale"] == pytest.approx(largest, rel=1e-3)
     assert mr["history"][k]["mesh"] == mr["mesh"] and sol.transcription.scheme.intervals == len(mr["degrees"])
     if k != mr["refinements"]:
         assert f"returned: the solution of refinement {k}" in mr["message"]

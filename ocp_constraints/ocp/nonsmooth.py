@@ -38,8 +38,10 @@ def merged_windows(windows) -> list[tuple[float, float]]:
     return [(lo, hi) for lo, hi in merged]
 
 
-# How flag_nonsmooth's clauses start in a message (unflagged cuts them off: the message of another solution).
-CLAUSES = ("; the inputs and multipliers jump (bang-bang) within ", ", but not trusted: ", "; and the estimate is not trusted: ")
+# How flag_nonsmooth's clauses start in a message: written with these, cut off by them (unflagged).
+JUMPS = "; the inputs and multipliers jump (bang-bang) within "
+UNTRUSTED = {True: ", but not trusted: ", False: "; and the estimate is not trusted: "}     # after a "met" message or not
+CLAUSES = (JUMPS, *UNTRUSTED.values())
 
 
 def unflagged(message: str) -> str:
@@ -65,7 +67,7 @@ def flag_nonsmooth(sol, tol: float, record: dict, smoothness: tuple, windows=())
     if windows:
         merged = merged_windows(windows)
         record["jump_windows"] = [[float(lo), float(hi)] for lo, hi in merged]
-        record["message"] += (f"; the inputs and multipliers jump (bang-bang) within {len(merged)} window(s) at fractions "
+        record["message"] += (f"{JUMPS}{len(merged)} window(s) at fractions "
                               + ", ".join(f"{lo:.5g}-{hi:.5g}" for lo, hi in merged[:4])
                               + " of the horizon: located from the bounds with a mesh point inside, their estimate "
                               "leaves these windows out (their error there is the jump's size), the states' does not")
@@ -75,7 +77,7 @@ def flag_nonsmooth(sol, tol: float, record: dict, smoothness: tuple, windows=())
     record["nonsmooth_intervals"] = [[float(mesh[k]), float(mesh[k + 1])] for k in bad]
     spots = ", ".join(f"{mesh[k]:.6g}-{mesh[k + 1]:.6g}" for k in bad[:4])     # 4 digits read "0.398-0.398"
     record.update(met=False, message=record["message"] + (
-        f"{', but' if record['message'].startswith('estimated') else '; and the estimate is'} not trusted: the inputs "
+        f"{UNTRUSTED[record['message'].startswith('estimated')]}the inputs "
         f"or multipliers are not smooth on {len(bad)} interval(s), at fractions {spots} "
         f"of the horizon (a switch inside: their Legendre coefficients fall as slowly as a "
         f"step's, up to {smoothness[0][bad].max():.2f} of it); a higher degree resolves a jump no better, so the "
