@@ -364,6 +364,33 @@ def test_ctrl_c_while_a_mesh_is_built_keeps_the_last_complete_solution(monkeypat
     assert "interrupted" in kept.mesh_refinement["message"]
 
 
+def test_a_first_mesh_whose_companion_fails_is_returned_not_met_with_no_estimate(monkeypatch, tmp_path, capsys):
+    """The first mesh solves, its companion does not (here: every warm solve and its retry capped at one IPOPT
+    iteration; a seventh newcomer's URDF arm, whose coarse first solution is far from the finer mesh's optimum):
+    ``solve`` returns the first mesh's solution, "met" False, ``estimate`` None, and says why and what to do. Before,
+    it raised the companion's OCPSolveError, whose ``.solution`` was the companion's unconverged last iterate. The
+    solution returned is checked against a plain fixed-mesh solve of the same first mesh; the CLI prints it too."""
+    import json
+
+    import ocp_constraints.ocp.mesh_refinement as mr
+    from ocp_constraints.cli.main import main
+
+    fixed = build_task("pendulum", "swing_up")[1].solve(Radau(10, degree=5))
+    for name, value in (("WARM_FACTOR", 0), ("WARM_MIN_ITER", 1), ("FALLBACK_FACTOR", 0), ("FALLBACK_MIN_ITER", 1)):
+        monkeypatch.setattr(mr, name, value)
+    sol = build_task("pendulum", "swing_up")[1].solve(tolerance=1e-6)
+    record = sol.mesh_refinement
+    assert sol.success and not record["met"] and record["estimate"] is None and record["refinements"] == 0
+    assert sol.transcription.scheme.point_count == fixed.transcription.scheme.point_count == 51
+    assert sol.objective == pytest.approx(fixed.objective, rel=1e-8)
+    assert np.allclose(sol.sample("motor"), fixed.sample("motor"), atol=1e-6 * np.abs(fixed.sample("motor")).max())
+    assert "Maximum_Iterations_Exceeded" in record["history"][0]["failed"]
+    assert "its error NOT estimated" in record["message"] and "start from a finer mesh" in record["message"]
+    assert main(["solve", "pendulum", "--tolerance", "1e-6", "--no-plots", "--out", str(tmp_path / "run")]) == 0
+    assert "refinements, 10 intervals of degrees 5-5; error NOT estimated" in capsys.readouterr().out
+    assert json.loads((tmp_path / "run" / "summary.json").read_text())["mesh_refinement"]["estimate"] is None
+
+
 def test_a_warm_solve_stopped_at_its_iteration_cap_is_solved_again_with_ipopts_own_options(monkeypatch):
     """With the warm solves' cap forced to one IPOPT iteration, every warm attempt stops there
     (Maximum_Iterations_Exceeded) and is solved again from the same start with the user's options (IPOPT's own):

@@ -185,10 +185,11 @@ def _solve(args) -> int:
         print(f"  {ms['succeeded']} of {ms['starts']} starts solved (seed {ms['seed']}); local optima: {optima}")
     if "mesh_refinement" in summary:
         mr = summary["mesh_refinement"]
-        est = ", ".join(f"{q} {v:.1e}" for q, v in mr["estimate"].items())
+        est = ("estimated error " + ", ".join(f"{q} {v:.1e}" for q, v in mr["estimate"].items()) if mr["estimate"]
+               else "error NOT estimated")
         print(f"  mesh refinement to {mr['tolerance']:g}: {'met' if mr['met'] else 'NOT met'} after {mr['refinements']} "
               f"refinements, {len(mr['degrees'])} intervals of degrees {min(mr['degrees'])}-{max(mr['degrees'])}; "
-              f"estimated error {est}; {mr['total_time_s']:.2f} s in all")
+              f"{est}; {mr['total_time_s']:.2f} s in all")
         if "complementarity_tolerance" in mr:   # mesh_solves.complementarity_tolerance: bounds reached, tol <= 1e-4
             unscaled = " with MUMPS's scaling off" if mr.get("mumps_scaling") == 0 else ""
             print(f"  IPOPT's complementarity held to {mr['complementarity_tolerance']:.0e} in the warm solves{unscaled} "

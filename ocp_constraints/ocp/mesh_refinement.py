@@ -72,7 +72,7 @@ from .error_estimate import UNRESOLVED_OBJECTIVE, UNRESOLVED_STATE, estimate_err
 from .legendre_decay import DECAY_LIMIT, legendre_decay
 from .mesh_companions import (MAX_DEGREE, _degrees, _ends, as_fine, companion_of, finer, finer_at_hand,
                               pilot_of, pilot_pieces, reused_degree, split_pieces, uniform_step)
-from .mesh_progress import gave_up, inputs_aside, interrupted, lowest_estimate, stall_message
+from .mesh_progress import gave_up, inputs_aside, interrupted, lowest_estimate, stall_message, unestimated
 from .mesh_solves import (COMPLEMENTARITY, MUMPS_SCALING, check_solver_tolerances, complementarity_tolerance, solver_floor,
                           tightened, without_mumps_scaling, iterations as _iterations, timed_solve as _timed_solve)
 from .nonsmooth import MIN_INTERVAL, flag_nonsmooth, judged_smoothness, nonsmooth_splits
@@ -231,12 +231,12 @@ def solve_to_tolerance(problem, tolerance, method=None, ipopt_options: dict | No
         Refinements after the first solve; if the estimate is still above the tolerance then, the
         solution with the lowest estimate is returned with ``mesh_refinement["met"]`` False and the reason.
 
-    Returns the :class:`~ocp_constraints.ocp.solution.OCPSolution` on the last mesh, with ``mesh_refinement`` filled
-    in (see the module's notes). A mesh IPOPT does not solve (its warm attempt and the retry with IPOPT's own options,
-    capped at :data:`FALLBACK_FACTOR` times the first mesh's cold iterations) stops the refinement, "met" False, with
-    the last solution whose error was estimated (:func:`.mesh_progress.gave_up`). If none was estimated yet, or on
-    Ctrl-C, :class:`~ocp_constraints.errors.OCPSolveError` is raised, its ``solution.mesh_refinement`` holding the
-    history so far (:func:`.mesh_progress.interrupted`)."""
+    Returns the :class:`~ocp_constraints.ocp.solution.OCPSolution` on the last mesh, ``mesh_refinement`` filled in
+    (module notes). A mesh IPOPT does not solve (warm, then with IPOPT's own options capped at :data:`FALLBACK_FACTOR`
+    times the first mesh's cold iterations) stops the refinement, "met" False, with the last solution whose error was
+    estimated (:func:`.mesh_progress.gave_up`), or the first mesh's, estimate None, where its companion is the one not
+    solved (:func:`.mesh_progress.unestimated`). If the first mesh is not solved, or on Ctrl-C, :class:`OCPSolveError`
+    is raised, its ``solution.mesh_refinement`` holding the history so far (:func:`.mesh_progress.interrupted`)."""
     tol = check_tolerance(tolerance)
     scheme = start_scheme(method)
     options = dict(ipopt_options or {})
@@ -246,8 +246,8 @@ def solve_to_tolerance(problem, tolerance, method=None, ipopt_options: dict | No
     record = {"tolerance": tol, "quantities_refined_on": list(GATED), "met": False, "history": history,
               "coordinates": problem.nlp_coordinates}
     parents, warm, total, total_cpu, first, solved, sol = None, warm_start, 0.0, 0.0, None, None, None
-    # Solutions solved lately: a finer one may judge a later mesh (:func:`finer`). Meshes grow, so a finer
-    # one is among the last few; the older ones (each with its NLP and IPOPT instance) are let go.
+    # Solutions solved lately: a finer one may judge a later mesh (:func:`finer`). Meshes grow, so a finer one is
+    # among the last few; the older ones (each with its NLP and IPOPT instance) are let go.
     at_hand: list = []
     score, best = np.inf, (np.inf, None, None, None, ())   # the last estimated solution's largest gated estimate; the lowest
     warm_options = {**WARM_IPOPT, **options}    # capped once the first mesh's cold solve has said how hard it is
@@ -294,9 +294,10 @@ def solve_to_tolerance(problem, tolerance, method=None, ipopt_options: dict | No
             del at_hand[:-AT_HAND]
             entry["solves"] = (solved is None) + (judge is None)
         except OCPSolveError as exc:
-            if previous is not None and exc.solution is not None and not exc.solution.status.startswith("interrupted"):
-                entry["failed"] = str(exc)
-                record["message"], sol = gave_up(record, r, exc, previous), previous
+            kept = previous if previous is not None else sol    # none estimated yet: the first mesh's, if it solved
+            if kept is not None and exc.solution is not None and not exc.solution.status.startswith("interrupted"):
+                entry["failed"], sol = str(exc), kept
+                record["message"] = gave_up(record, r, exc, kept) if previous is not None else unestimated(record, entry, exc, kept)
                 break
             record["message"] = f"refinement {r}: {exc}"
             if exc.solution is not None:
