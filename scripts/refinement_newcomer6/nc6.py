@@ -44,9 +44,12 @@ def errors(sol, ref, frac_grid):
         out["per_state"][n] = float(abs(d[k]))
         if abs(d[k]) > out["states"]:
             out["states"] = float(abs(d[k])); out["where"]["states"] = (float(t[k]), n)
-    # the last history entry with a load scale (a failed last solve's entry has none)
-    scale = float(next(h["load_scale"] for h in reversed(sol.mesh_refinement["history"]) if "load_scale" in h))
+    # the last history entry with a load scale (a failed last solve's entry has none; none at all where the first
+    # mesh's companion failed and nothing was estimated: then the reference's largest load on the grid)
     m = frac_grid > 0
+    scale = next((float(h["load_scale"]) for h in reversed(sol.mesh_refinement["history"]) if "load_scale" in h), None)
+    if scale is None:
+        scale = max(float(np.abs(evaluate(ref, n, frac_grid[m], "load")).max()) for n in ref["loads"])
     for n in list(ref["loads"]) + list(ref["zeros"]):
         lv = np.asarray(sol.interpolate(n + ".lambda", t[m]), float)
         rv = evaluate(ref, n, frac_grid[m], "load") if n in ref["loads"] else 0.0
