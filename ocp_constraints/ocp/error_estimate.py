@@ -28,6 +28,8 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from .arc_floor import arc_floor
+
 SAFETY = 2.0
 SAMPLES_PER_POINT = 2
 QUANTITIES = ("states", "multipliers", "inputs")
@@ -260,7 +262,8 @@ def estimate_error(solution, companion, safety: float = SAFETY, windows=(), swit
     smears a jump over its bracket, holding the bounds loosely there, and the companion smears it alike:
     the bang-bang block at 1e-4, true state error 5.9e-6, the companion's difference 2.1e-6, the effect
     1.2e-5). At an input's kink inside an interval the multipliers' and inputs' estimate is at least the
-    kink's own size (:func:`_kink_floor`)."""
+    kink's own size (:func:`_kink_floor`); on a located arc of a state bound the states' is at least ``safety`` times
+    the solution's own gap from the bound there (:func:`.arc_floor.arc_floor`: the companion shares it)."""
     fractions, owner = sample_grid(solution.transcription)
     ours, theirs = values_at(solution, fractions), values_at(companion, fractions)
     est = compare(ours, theirs, fractions, owner, solution.transcription.scheme.intervals, names(solution), windows)
@@ -273,6 +276,10 @@ def estimate_error(solution, companion, safety: float = SAFETY, windows=(), swit
         est.local["states"][w.interval] = max(est.local["states"][w.interval], w.effect)
         est.totals["states"] = max(est.totals["states"], w.effect)
     _kink_floor(solution, est, switches)
+    # On a state bound's arc: the interior point's gap from the bound, which the companion shares (.arc_floor).
+    arc = safety * arc_floor(solution, switches)
+    est.per_interval["states"] = np.maximum(est.per_interval["states"], arc)
+    est.totals["states"] = max(est.totals["states"], float(arc.max(initial=0.0)))
     if solution.transcription.layout.free_time:
         est.totals["t_final"] = safety * abs(solution.t_final - companion.t_final)
     est.totals = {q: max(v, floor) for q, v in est.totals.items()}

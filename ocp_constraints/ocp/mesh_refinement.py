@@ -305,8 +305,7 @@ def solve_to_tolerance(problem, tolerance, method=None, ipopt_options: dict | No
             raise
         except KeyboardInterrupt:               # a build or a compile: keep the last complete solution
             raise interrupted(record, r, sol) from None
-        total += t_sol + t_comp
-        total_cpu += c_sol + c_comp
+        total, total_cpu = total + t_sol + t_comp, total_cpu + c_sol + c_comp
         windows = jump_windows(found + detect_switches(companion), scheme.mesh_fractions)
         est = estimate_error(sol, companion, windows=windows, switches=found, floor=floor)
         scale = scale or est.resolved       # warm solves scale the objective from the first resolved mesh on

@@ -1,0 +1,87 @@
+"""The error an interior point leaves on a state bound's arc, which a companion shares and cannot see.
+
+Where a coordinate or speed is held at its bound over an arc, the exact solution lies *on* the bound there, and a
+coordinate held at a constant bound does not move. IPOPT's interior point holds a bound ``mu / z`` inside it, ``z``
+the bound's multiplier, and where the bound carries little (``z`` small: Bryson and Denham's block on its wall, the
+push zero along the arc) that gap is not negligible and varies along the arc. The companion, solved the same way,
+has the same gap: their difference, the estimate, does not see it. On Bryson-Denham at 1e-6 the block's speed along
+the wall reached 8.7e-8 at the points (exactly 0 there), 1.40x the estimate (6.2e-8), and its largest true error
+(``python scripts/bryson_denham_refinement.py``).
+
+So on every mesh interval that lies wholly on a located arc (its entry and exit located as junctions by
+:mod:`.switch_detection`, or the horizon's ends), the states' error is at least, at each point,
+
+- ``|x - bound|``, the bounded state's distance from its bound, and
+- for a bounded coordinate ``q_i``, ``|q_i'| / ||N_i||_1`` with ``q' = N(q) u`` (eq. 2): its rate is exactly zero
+  on the arc, and ``|q_i'| <= ||N_i||_1 max_j |u_j - u_j*|`` bounds the speeds' error from below.
+
+These are errors of the solution itself at its points, not estimates: :func:`arc_floor` gives their largest per
+interval, and the estimate (:func:`.error_estimate.estimate_error`) is at least :data:`.error_estimate.SAFETY` times
+that, as it is that many times the difference it sees elsewhere. Intervals holding a junction, and the points before
+and after an arc, are left out: there the exact solution leaves the bound, and its distance and rate are not errors.
+"""
+from __future__ import annotations
+
+import numpy as np
+
+from .switch_detection import ACTIVE, TIGHT, activity
+
+
+def arc_floor(solution, switches) -> np.ndarray:
+    """Per mesh interval of ``solution``, the largest error its states are known to have on a located arc of a state
+    bound (module notes; zero where there is none). ``switches``: the solution's located switches
+    (:func:`.switch_detection.detect_switches`)."""
+    tr = solution.transcription
+    pr = getattr(tr, "user_problem", tr.problem)
+    mesh, frac = tr.scheme.mesh_fractions, tr.fractions
+    floor = np.zeros(tr.scheme.intervals)
+    coordinates, speeds = pr.model.coordinate_names, pr.model.speed_names
+    bounded = [(n, lo, hi) for n, (lo, hi) in pr.bounds.items() if n in coordinates or n in speeds]
+    if not bounded:
+        return floor
+    traj = solution.trajectory
+    rates = rate_rows = None
+    for name, lo, hi in bounded:
+        v = np.asarray(solution.sample(name), float)
+        s, eps = activity(v, float(lo), float(hi))
+        junctions = np.array(sorted(w.fraction for w in switches if w.quantity == name and w.kind == "junction"))
+        for a, b in _runs(s):
+            # The run of points near the bound takes in the approach (within ACTIVE of the scale); the arc lies
+            # between the first and the last junction located over it, or the horizon's ends.
+            over = junctions[(junctions >= frac[max(a - 1, 0)]) & (junctions <= frac[min(b + 1, len(v) - 1)])]
+            t_in = 0.0 if a == 0 else (float(over[0]) if over.size else None)
+            t_out = 1.0 if b == len(v) - 1 else (float(over[-1]) if over.size else None)
+            if t_in is None or t_out is None or t_out <= t_in:
+                continue                  # an arc whose entry or exit is not located: where it lies is not known
+            bound = float(lo) if s[a] < 0 else float(hi)
+            for k in np.flatnonzero((mesh[:-1] >= t_in) & (mesh[1:] <= t_out)):
+                points = np.asarray(tr.interval_points(int(k)))
+                gap = float(np.abs(v[points] - bound).max())
+                if gap > eps * TIGHT / ACTIVE:
+                    continue      # not held tightly: the two junctions may bound a dip off the bound, not an arc
+                if name in coordinates:
+                    if rates is None:
+                        eqs, P = pr.eqs, len(frac)
+                        q, u = np.asarray(traj.q, float).T, np.asarray(traj.u, float).T
+                        rates = np.asarray(eqs.coordinate_rates.map(P)(q, u), float)
+                        N = np.asarray(eqs.rate_matrix.map(P)(q), float).reshape(len(coordinates), P, -1)
+                        rate_rows = np.abs(N).sum(axis=2)                    # ||N_i||_1 at every point
+                    i = coordinates.index(name)
+                    norm = np.maximum(rate_rows[i, points], 1e-300)
+                    gap = max(gap, float((np.abs(rates[i, points]) / norm).max()))
+                floor[k] = max(floor[k], gap)
+    return floor
+
+
+def _runs(s: np.ndarray) -> list[tuple[int, int]]:
+    """``(first, last)`` point of every run of points held at one bound (``s`` -1 or +1 throughout)."""
+    out, start = [], None
+    for i, value in enumerate(s):
+        if start is not None and value != s[start]:
+            out.append((start, i - 1))
+            start = None
+        if start is None and value != 0:
+            start = i
+    if start is not None:
+        out.append((start, len(s) - 1))
+    return out

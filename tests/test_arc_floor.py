@@ -1,0 +1,76 @@
+"""The states' error on a state bound's arc, which the companion shares (ocp/arc_floor.py), against Bryson and Ho's
+closed form for Bryson and Denham's block (examples/bryson_denham.py): on the wall the exact block is at x = 1/9 and
+at rest, so the NLP's gap from the wall and its speed there are its own errors."""
+from __future__ import annotations
+
+import casadi as ca
+import numpy as np
+import pytest
+
+import ocp_constraints as oc
+from ocp_constraints.ocp.arc_floor import arc_floor
+from ocp_constraints.ocp.switch_detection import detect_switches
+
+WALL = 1 / 9
+
+
+def _bryson_denham() -> oc.OptimalControlProblem:
+    """The example's problem: a 1 kg block on a rail, pushed by u, x <= 1/9, least integral of u^2."""
+    model = oc.Model("bryson_denham", gravity=(0.0, -9.81, 0.0))
+    block = model.add_body("block", 1.0, np.diag([0.01, 0.01, 0.01]), rotation="321")
+    E1, E2, E3 = ca.DM([1, 0, 0]), ca.DM([0, 1, 0]), ca.DM([0, 0, 1])
+    model.add_constraint("rail.v2", ca.dot(E2, block.com.v), joint="rail", position=block.com.position[1])
+    model.add_constraint("rail.v3", ca.dot(E3, block.com.v), joint="rail", position=block.com.position[2])
+    for k, E in enumerate((E1, E2, E3)):
+        model.add_constraint(f"rail.w{k + 1}", ca.dot(E, block.omega), joint="rail")
+    u = model.add_input("u")
+    model.add_force("push", block.com, ca.vertcat(u, 0, 0))
+    ocp = oc.OptimalControlProblem(model, t_final=1.0)
+    ocp.initial({"block.x": 0.0, "block.vbar_x": 1.0, "block.psi": 0.0, "block.theta": 0.0, "block.phi": 0.0})
+    ocp.final({"block.x": 0.0, "block.vbar_x": -1.0})
+    ocp.bound("block.x", -1.0, WALL)
+    ocp.minimize_effort(["u"])
+    return ocp
+
+
+def _closed_form(t: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """x and v of Bryson and Ho (sec. 3.11) for a wall of 1/9 <= 1/6: on the wall for 1/3 <= t <= 2/3."""
+    s = np.minimum(t, 1 - t)
+    r = np.where(s < 3 * WALL, 1 - s / (3 * WALL), 0.0)
+    return np.where(s < 3 * WALL, WALL * (1 - r ** 3), WALL), r ** 2 * np.where(t <= 0.5, 1.0, -1.0)
+
+
+def _true_errors(sol, t: np.ndarray) -> float:
+    x, v = _closed_form(t)
+    return max(float(np.abs(sol.interpolate("block.x", t) - x).max()),
+               float(np.abs(sol.interpolate("block.vbar_x", t) - v).max()))
+
+
+def test_the_floor_on_a_located_arc_is_the_solutions_own_error_at_its_points():
+    """On each interval wholly on the wall (the junctions located), the floor is the largest of the block's gap from
+    the wall and its speed at the interval's points, which is its error there against the closed form; off the arc,
+    and on the intervals the junctions lie in, nothing."""
+    sol = _bryson_denham().solve(oc.Radau(mesh=tuple(np.linspace(0.0, 1.0, 13)), degrees=(5,) * 12))
+    floor = arc_floor(sol, detect_switches(sol))
+    mesh, tr = sol.transcription.scheme.mesh_fractions, sol.transcription
+    on = np.flatnonzero(floor)
+    assert on.size >= 2
+    for k in range(len(floor)):
+        points = np.asarray(tr.interval_points(k))
+        if k in on:
+            assert mesh[k] >= 1 / 3 - 1e-3 and mesh[k + 1] <= 2 / 3 + 1e-3
+            x, v = _closed_form(sol.t[points])
+            truth = max(np.abs(sol.sample("block.x")[points] - x).max(), np.abs(sol.sample("block.vbar_x")[points] - v).max())
+            assert floor[k] == pytest.approx(truth, rel=1e-9, abs=1e-15)
+        else:
+            assert floor[k] == 0.0
+
+
+def test_bryson_denham_at_1e_6_is_met_with_its_true_error_under_the_estimate():
+    """At 1e-6 the block's speed on the wall, 8.7e-8 (IPOPT's gap from the wall varying along it), was 1.40x the
+    estimate, since the companion had the same gap; with the arc's floor the estimate covers it, within [0.1, 1]."""
+    sol = _bryson_denham().solve(tolerance=1e-6)
+    record = sol.mesh_refinement
+    true = _true_errors(sol, np.linspace(0.0, 1.0, 2001))
+    assert record["met"]
+    assert 0.1 * record["estimate"]["states"] <= true <= record["estimate"]["states"]
