@@ -44,7 +44,8 @@ def test_the_floor_on_a_located_arc_is_the_solutions_own_error_at_its_points(mon
     the wall and its speed at the interval's points, which is its error there against the closed form; off the arc,
     and on the intervals the junctions lie in, nothing."""
     sol = _bryson_denham(monkeypatch).solve(oc.Radau(mesh=tuple(np.linspace(0.0, 1.0, 13)), degrees=(5,) * 12))
-    floor = arc_floor(sol, detect_switches(sol))
+    floor, held = arc_floor(sol, detect_switches(sol))
+    assert list(held) == ["block.x"] and held["block.x"] == floor.max()
     mesh, tr = sol.transcription.scheme.mesh_fractions, sol.transcription
     on = np.flatnonzero(floor)
     assert on.size >= 2
@@ -67,3 +68,24 @@ def test_bryson_denham_at_1e_6_is_met_with_its_true_error_under_the_estimate(mon
     true = _true_errors(sol, np.linspace(0.0, 1.0, 2001))
     assert record["met"]
     assert 0.1 * record["estimate"]["states"] <= true <= record["estimate"]["states"]
+
+
+def test_a_not_met_message_names_the_arc_whose_floor_holds_the_estimate(monkeypatch):
+    """Where the states' estimate above the tolerance is an arc's floor, the message says so (no mesh lowers it);
+    where the estimate is above the floor, or the floor under the tolerance, it says nothing of arcs. The floor is
+    the one the fixed-mesh solve above measures against the closed form."""
+    from ocp_constraints.ocp.error_estimate import SAFETY, estimate_error
+
+    problem = _bryson_denham(monkeypatch)
+    sol = problem.solve(oc.Radau(mesh=tuple(np.linspace(0.0, 1.0, 13)), degrees=(5,) * 12))
+    companion = problem.solve(oc.Radau(mesh=tuple(np.linspace(0.0, 1.0, 13)), degrees=(7,) * 12))
+    switches = detect_switches(sol)
+    est = estimate_error(sol, companion, switches=switches)
+    floor, _ = arc_floor(sol, switches)
+    assert est.arcs == {"block.x": pytest.approx(SAFETY * floor.max())}
+    held = est.arcs["block.x"]
+    est.totals["states"] = held
+    assert "is the solver's own gap on the arc where 'block.x' holds its bound" in est.arc_note(0.5 * held)
+    assert est.arc_note(2.0 * held) == ""
+    est.totals["states"] = 2.0 * held
+    assert est.arc_note(0.5 * held) == ""

@@ -56,6 +56,29 @@ class ErrorEstimate:
     # Per quantity and interval, the part of the difference made there (:func:`made_here`), where
     # ``per_interval`` also holds the error carried in from elsewhere (:meth:`refinement_ratio`).
     local: dict[str, np.ndarray] = field(default_factory=dict)
+    # Per state-bounded quantity, the states' floor on its located arcs (already times SAFETY; .arc_floor), and the
+    # states' total without it (what a finer mesh can lower); None where there is no arc.
+    arcs: dict[str, float] = field(default_factory=dict)
+    mesh_states: float | None = None
+
+    def held_by_arcs(self, tolerance: float, gated) -> str:
+        """Why to stop, where only an arc's floor keeps the estimate above ``tolerance`` (no mesh lowers it); else ""."""
+        if not self.arcs or self.totals["states"] <= tolerance or self.mesh_states > tolerance or any(
+                self.totals[q] > tolerance for q in gated if q != "states"):
+            return ""
+        return (f"estimate above {tolerance:g} only where a state bound holds (states {self.totals['states']:.1e}, "
+                f"{self.mesh_states:.1e} from the mesh)")
+
+    def arc_note(self, tolerance: float) -> str:
+        """For a message: where the states' estimate above ``tolerance`` is the floor of a state bound's arc (the
+        interior point's gap from the bound, which no mesh reduces, :mod:`.arc_floor`), that sentence; else ""."""
+        held = {n: v for n, v in self.arcs.items() if tolerance < v >= self.totals["states"]}
+        if not held:
+            return ""
+        name, value = max(held.items(), key=lambda item: item[1])
+        return (f"; the states' estimate ({value:.1e}) is the solver's own gap on the arc where '{name}' holds its "
+                f"bound: IPOPT's interior point keeps a bound mu/z inside it, the companion has the same gap, and no "
+                f"mesh reduces it (ocp/arc_floor.py); accept a tolerance above it")
 
     def as_dict(self) -> dict:
         out = {"estimate": dict(self.totals), "worst": dict(self.worst), "load_scale": self.load_scale,
@@ -82,6 +105,8 @@ class ErrorEstimate:
         per = dict(self.per_interval)
         for q in gated:
             total, local = self.totals.get(q, 0.0), self.local.get(q)
+            if q == "states" and self.mesh_states is not None:
+                total = self.mesh_states         # an arc's floor (.arc_floor) is no mesh's to lower
             if local is not None and total > tolerance and local.max() > 0.0:
                 per[q] = local * (total / local.max())
         return np.max([per[q] for q in gated], axis=0) / tolerance
@@ -277,9 +302,13 @@ def estimate_error(solution, companion, safety: float = SAFETY, windows=(), swit
         est.totals["states"] = max(est.totals["states"], w.effect)
     _kink_floor(solution, est, switches)
     # On a state bound's arc: the interior point's gap from the bound, which the companion shares (.arc_floor).
-    arc = safety * arc_floor(solution, switches)
-    est.per_interval["states"] = np.maximum(est.per_interval["states"], arc)
-    est.totals["states"] = max(est.totals["states"], float(arc.max(initial=0.0)))
+    # Only in the total: refinement cannot lower it (ErrorEstimate.refinement_ratio, held_by_arcs).
+    _, held = arc_floor(solution, switches)
+    est.arcs = {name: safety * value for name, value in held.items()}
+    est.mesh_states = est.totals["states"] if est.arcs else None
+    for name, value in est.arcs.items():
+        if value > est.totals["states"]:
+            est.totals["states"], est.worst["states"] = value, name
     if solution.transcription.layout.free_time:
         est.totals["t_final"] = safety * abs(solution.t_final - companion.t_final)
     est.totals = {q: max(v, floor) for q, v in est.totals.items()}

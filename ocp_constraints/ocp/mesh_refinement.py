@@ -353,7 +353,7 @@ def solve_to_tolerance(problem, tolerance, method=None, ipopt_options: dict | No
             record["message"] = (f"estimate still above {tol:g} after {r} refinements (states "
                                  f"{est.totals['states']:.1e}, multipliers {est.totals['multipliers']:.1e}); "
                                  f"raise max_refinements (solve(..., max_refinements=N), --max-refinements N) "
-                                 f"or accept a larger tolerance")
+                                 f"or accept a larger tolerance" + est.arc_note(tol))
             mesh = scheme.mesh_fractions
             record["rough_intervals"] = [[float(a), float(b)] for a, b, q in zip(mesh[:-1], mesh[1:], ratio)
                                          if q > 1.0 and (parents or {}).get(_ends(a, b), np.inf) < 10.0 * q]
@@ -364,8 +364,8 @@ def solve_to_tolerance(problem, tolerance, method=None, ipopt_options: dict | No
                                       f"{spots} of the horizon")
             flag_nonsmooth(sol, tol, record, smoothness, windows)
             break
-        if stalled := stall_message(history, tol, GATED):    # more points no longer pay (mesh_progress)
-            record["message"] = stalled
+        if stalled := stall_message(history, tol, GATED) or est.held_by_arcs(tol, GATED):    # more points no longer pay
+            record["message"] = stalled + est.arc_note(tol)
             flag_nonsmooth(sol, tol, record, smoothness, windows)
             break
         # Rough intervals (see refine): where the solution switches; a jump of the inputs and
