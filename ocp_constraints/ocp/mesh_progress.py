@@ -166,6 +166,7 @@ def unestimated(record: dict, entry: dict, exc: OCPSolveError, first) -> str:
     an exception at 1e-4..1e-6, "not met" at 1e-3; results/bench/refinement_newcomer7.md)."""
     scheme = first.transcription.scheme
     said = str(exc).split("; the last iterate")[0]
+    entry["solves"] = 1         # the first mesh's; the companion's attempt is entry["failed"]
     record.update(mesh=entry["mesh"], degrees=entry["degrees"], estimate=None, refinements=0,
                   total_time_s=entry["time_s"], total_cpu_s=entry["cpu_s"])
     return (f"stopped at refinement 0: the first mesh ({scheme.intervals} intervals, {scheme.point_count} points) solved, "
