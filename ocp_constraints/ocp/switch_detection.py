@@ -185,7 +185,19 @@ def detect_switches(solution) -> list[Switch]:
     """Every switch of every bounded quantity of ``solution``, located (module notes), in time order.
 
     The first point (``t = 0``) is left out for inputs and path constraints: Radau has no collocation
-    point there, its inputs are extrapolated and its multipliers follow from the acceleration level."""
+    point there, its inputs are extrapolated and its multipliers follow from the acceleration level.
+    Kept on the solution for the bounds and path constraints it was found under (a refinement reads a
+    solution's switches up to three times: as a companion, as the next solution, as the one returned);
+    an edit of the problem's bounds or path constraints finds them again."""
+    pr = getattr(solution.transcription, "user_problem", solution.transcription.problem)
+    key = (tuple(pr.bounds.items()), tuple((id(c), c.lower, c.upper) for c in pr.path_constraints))
+    kept = solution.__dict__.get("_switches")
+    if kept is None or kept[0] != key:
+        kept = solution.__dict__["_switches"] = (key, _detect(solution))
+    return list(kept[1])
+
+
+def _detect(solution) -> list[Switch]:
     tr = solution.transcription
     mesh, frac = tr.scheme.mesh_fractions, tr.fractions
     D, X, T = np.asarray(solution.D, float), np.asarray(solution.X, float), float(solution.t_final)
