@@ -6,7 +6,8 @@
 
 PROBLEMs: pend (rod on a revolute joint, joint coordinates, angle lower bound), pend_max (the same,
 coordinates="maximal"), speed (block on a rail, speed bound), bd12 (Bryson-Denham, wall 1/12),
-vert (Bryson-Denham moved vertically against gravity, wall 1/7).
+vert (Bryson-Denham moved vertically against gravity, wall 1/7), pend_b (a second pendulum: T 2.5 s,
+1.2 -> 0.7 rad, stop at 0.4 rad).
 """
 from __future__ import annotations
 
@@ -24,7 +25,14 @@ HERE = Path(__file__).resolve().parent
 G = 9.81
 
 # ---------------------------------------------------------------- problems through the public API
-PEND = dict(M=1.0, L=1.0, T=2.0, p0=1.0, p1=0.8, lo=0.5)
+PEND = dict(M=1.0, L=1.0, T=2.0, p0=1.0, p1=0.8, lo=0.5, t1g=0.7, t2g=1.4)
+PEND_B = dict(M=1.0, L=1.0, T=2.5, p0=1.2, p1=0.7, lo=0.4, t1g=0.9, t2g=1.8)   # pend_b: a second pendulum
+
+
+def _pend_variant(name):
+    """pend_b takes PEND_B's numbers (PEND is rebound at import in the subprocess: one problem per process)."""
+    if name == "pend_b":
+        PEND.update(PEND_B)
 SPEED = dict(D=1.0, T=1.0, vmax=1.2)
 BD12 = dict(wall=1 / 12)
 VERT = dict(wall=1 / 7)
@@ -32,7 +40,8 @@ VERT = dict(wall=1 / 7)
 
 def build(name: str):
     import ocp_constraints as oc
-    if name in ("pend", "pend_max"):
+    _pend_variant(name)
+    if name in ("pend", "pend_max", "pend_b"):
         M, L, T = PEND["M"], PEND["L"], PEND["T"]
         model = oc.Model("stop_pendulum", gravity=(0.0, -G, 0.0))
         rod = model.add_body("rod", M, M * L**2 / 12 * np.diag([1.0, 0.0, 1.0]), rotation="321")
@@ -81,7 +90,7 @@ def pend_spec():
     M, L, T, lo = PEND["M"], PEND["L"], PEND["T"], PEND["lo"]
     IA, k = M * L**2 / 3, M * G * L / 2
     hold = k * np.sin(lo)
-    return dict(nx=2, nu=1, T=T, t1=0.7, t2=1.4,
+    return dict(nx=2, nu=1, T=T, t1=PEND["t1g"], t2=PEND["t2g"],
                 f=lambda x, u: ca.vertcat(x[1], (u[0] - k * ca.sin(x[0])) / IA),
                 L=lambda x, u: u[0] ** 2, x0=[PEND["p0"], 0.0], xT=[PEND["p1"], 0.0],
                 entry=lambda x: ca.vertcat(x[0] - lo, x[1]), middle=lambda x, d: (x, d * hold**2),
@@ -105,7 +114,8 @@ def bd_spec(wall, g=0.0):
 
 
 def spec(name):
-    return {"pend": pend_spec, "pend_max": pend_spec, "speed": speed_spec,
+    _pend_variant(name)
+    return {"pend": pend_spec, "pend_max": pend_spec, "pend_b": pend_spec, "speed": speed_spec,
             "bd12": lambda: bd_spec(BD12["wall"]), "vert": lambda: bd_spec(VERT["wall"], G)}[name]()
 
 
@@ -137,7 +147,7 @@ def ref_quantities(name, t, ph=None):
     """Library-named states and multipliers of the reference at times t. Closed forms where there is one (speed,
     bd12, vert), else the phase reference ``ph``; multipliers by Newton-Euler."""
     st, lam = {}, {}
-    if name in ("pend", "pend_max"):
+    if name.startswith("pend"):
         x, u = ph.evaluate(t)
         psi, w = x
         M, L = PEND["M"], PEND["L"]
@@ -184,7 +194,8 @@ def junctions(name, ph=None):
 
 
 def horizon(name):
-    return {"pend": PEND["T"], "pend_max": PEND["T"], "speed": SPEED["T"]}.get(name, 1.0)
+    _pend_variant(name)
+    return {"pend": PEND["T"], "pend_max": PEND["T"], "pend_b": PEND["T"], "speed": SPEED["T"]}.get(name, 1.0)
 
 
 # ---------------------------------------------------------------- commands
@@ -200,7 +211,7 @@ def cmd_ref(name):
     xa, uA = a.evaluate(t)
     xb, uB = b.evaluate(t)
     lo_b = spec(name)
-    viol = {"pend": lambda: float((PEND["lo"] - xb[0]).max()), "speed": lambda: float((xb[1] - SPEED["vmax"]).max())}
+    viol = {"pend": lambda: float((PEND["lo"] - xb[0]).max()), "pend_b": lambda: float((PEND["lo"] - xb[0]).max()), "speed": lambda: float((xb[1] - SPEED["vmax"]).max())}
     out = {"bound_violation_fine": viol[name]() if name in viol else None, "problem": name, "J_coarse": a.J, "J_fine": b.J, "t1": [a.t1, b.t1], "t2": [a.t2, b.t2],
            "states_coarse_vs_fine": float(np.abs(xa - xb).max()), "input_coarse_vs_fine": float(np.abs(uA - uB).max()),
            "cpu_s": cpu}
@@ -281,6 +292,7 @@ def cmd_all(name, tols, cap):
         else:
             row = {"problem": name, "tol": tol, "killed": p.returncode, "stderr_tail": p.stderr[-800:]}
         row["wall_s"] = time.time() - w0
+        row["cap_s"] = cap
         if p.stderr.strip():
             row["stderr_tail"] = p.stderr[-1500:]
         with out.open("a") as f:

@@ -39,7 +39,7 @@ class Phases:
                     out[:, j] *= (x - tau[r]) / (tau[j] - tau[r])
         return out
 
-    def solve(self, warm=None):
+    def solve(self, warm=None, fix_t1=None):
         sp, N, s = self.spec, self.N, self.s
         nx, nu, T = sp["nx"], sp["nu"], sp["T"]
         opti = ca.Opti()
@@ -48,6 +48,8 @@ class Phases:
         opti.subject_to(opti.bounded(1e-3, t1, T - 2e-3))
         opti.subject_to(opti.bounded(t1 + 1e-3, t2, T - 1e-3))
         opti.set_initial(t1, sp["t1"])
+        if fix_t1 is not None:
+            opti.subject_to(t1 == fix_t1)
         opti.set_initial(t2, sp["t2"])
         X, U, J = [], [], 0
         for ph, (a, b) in enumerate(((0.0, t1), (t2, T))):

@@ -25,7 +25,7 @@ def main(names):
         for line in p.read_text().splitlines():
             r = json.loads(line)
             if "exception" in r or "killed" in r:
-                what = r.get("exception") or f"killed (rc {r.get('killed')}), CPU cap"
+                what = r.get("exception") or f"killed (rc {r.get('killed')}): CPU cap {r.get('cap_s', 120)} s reached"
                 print(f"| {r['tol']:g} | {what[:120]} | | {f(r.get('cpu_s'), '.1f')} | | | | exception |")
                 continue
             es, em, ts, tm = r["est_states"], r["est_multipliers"], r["true_states"], r["true_multipliers"]
@@ -38,7 +38,7 @@ def main(names):
                         flags.append(f"{lab} true > estimate")
                     if q is not None and q < 0.1:
                         flags.append(f"{lab} true < estimate/10")
-            print(f"| {r['tol']:g} | {r['met']} | {r['points']} ({r['intervals']}) | {r['cpu_s']:.1f} | {f(es)} / {f(em)} | "
+            print(f"| {r['tol']:g}{' (cap %s s)' % r['cap_s'] if r.get('cap_s', 120) != 120 else ''} | {r['met']} | {r['points']} ({r['intervals']}) | {r['cpu_s']:.1f} | {f(es)} / {f(em)} | "
                   f"{f(ts)} ({r['worst_state']}) / {f(tm)} ({r['worst_multiplier']}) | {f(rs, '.2f')} / {f(rm, '.2f')} | "
                   f"{'; '.join(flags)} |")
         for line in p.read_text().splitlines():

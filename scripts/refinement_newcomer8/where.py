@@ -1,7 +1,7 @@
 """Where in time the true error of one solve lies (states and multipliers), and the error with the horizon's ends
 left out; the message and the located switches.
 
-    python where.py PROBLEM TOL
+    python where.py PROBLEM TOL [MAX_REFINEMENTS]
 """
 import json
 import sys
@@ -12,7 +12,8 @@ import nc8
 
 name, tol = sys.argv[1], float(sys.argv[2])
 pr = nc8.build(name)
-sol = pr.solve(tolerance=tol, progress=False)
+kw = {"max_refinements": int(sys.argv[3])} if len(sys.argv) > 3 else {}
+sol = pr.solve(tolerance=tol, progress=False, **kw)
 r = sol.mesh_refinement
 T = nc8.horizon(name)
 ph = nc8.reference(name, 80) if name.startswith("pend") else None
@@ -38,3 +39,8 @@ for k, v in list(st.items()) + list(lam.items()):
 h = r["history"][-1]
 print("last history entry:", json.dumps({k: h[k] for k in h if k not in ("mesh", "degrees")}, default=str)[:1500])
 print("keys:", sorted(r.keys()))
+# the final mesh around the reference junctions
+for x in jt:
+    k = int(np.searchsorted(mesh, x)) - 1
+    print(f"reference junction {x:.7f} lies in mesh interval [{mesh[k]:.7f}, {mesh[k + 1]:.7f}] "
+          f"(h = {mesh[k + 1] - mesh[k]:.2e}, degree {r['degrees'][k]})")
