@@ -85,7 +85,7 @@ def test_a_not_met_message_names_the_arc_whose_floor_holds_the_estimate(monkeypa
     assert est.arcs == {"block.x": pytest.approx(SAFETY * floor.max())}
     held = est.arcs["block.x"]
     est.totals["states"] = held
-    assert "is the solver's own gap on the arc where 'block.x' holds its bound" in est.arc_note(0.5 * held)
+    assert "is twice the solution's own error on the arc where 'block.x' holds its bound" in est.arc_note(0.5 * held)
     assert est.arc_note(2.0 * held) == ""
     est.totals["states"] = 2.0 * held
     assert est.arc_note(0.5 * held) == ""

@@ -20,7 +20,9 @@ def test_the_four_bar_stops_after_two_refinements_that_doubled_its_points_for_li
     msg = stall_message(FOUR_BAR, 1e-4)
     assert msg is not None
     assert "(1709 -> 3361 points)" in msg and "the 2 refinements" in msg and "crank.omega_z" in msg and "1e-04" in msg
-    assert "the lowest reached: 1.1e-02" in msg
+    assert "the lowest estimate reached: 1.1e-02" in msg and "raised the estimate 2.2x (1.1e-02 -> 2.3e-02" in msg
+    # lowest_estimate returns an earlier solution only if its estimate is RANKED times lower: the message says no more
+    assert "Returned: the last solution, or an earlier one whose estimate was more than 2x lower" in msg
 
 
 def test_one_stall_while_the_mesh_moves_to_a_switch_goes_on():
@@ -141,3 +143,13 @@ def test_a_returned_earlier_solution_is_described_once_not_beside_the_last_meshs
     assert "not trusted" in record["message"] and "0-0.5" in record["message"]
     assert unflagged(record["message"]) == base
     assert unflagged(base) == base
+
+
+def test_a_stall_that_lowered_the_estimate_a_little_says_it_cut_it():
+    """An eighth newcomer read "changed the estimate only 0.78x" for an estimate that rose 1.28x (3.4e-3 -> 4.3e-3):
+    a rise and a small fall are worded apart."""
+    rose = stall_message(_history((51, 1.7e-2), (141, 3.4e-3), (225, 4.3e-3)), 3e-5)
+    assert "raised the estimate 1.3x (3.4e-03 -> 4.3e-03" in rose
+    fell = _history((51, 1.7e-2), (141, 3.4e-3), (300, 2.9e-3), (700, 2.5e-3))
+    msg = stall_message(fell, 3e-5)
+    assert msg is not None and "cut the estimate only 1.2x (2.9e-03 -> 2.5e-03" in msg

@@ -76,9 +76,10 @@ class ErrorEstimate:
         if not held:
             return ""
         name, value = max(held.items(), key=lambda item: item[1])
-        return (f"; the states' estimate ({value:.1e}) is the solver's own gap on the arc where '{name}' holds its "
-                f"bound: IPOPT's interior point keeps a bound mu/z inside it, the companion has the same gap, and no "
-                f"mesh reduces it (ocp/arc_floor.py); accept a tolerance above it")
+        return (f"; the states' estimate ({value:.1e}) is twice the solution's own error on the arc where '{name}' "
+                f"holds its bound (its gap from the bound, or for a coordinate its rate, exactly 0 on the arc): IPOPT's "
+                f"interior point keeps a bound mu/z inside it, by a gap that varies along the arc; the companion has the "
+                f"same error, and no mesh reduces it (ocp/arc_floor.py); accept a tolerance above it")
 
     def as_dict(self) -> dict:
         out = {"estimate": dict(self.totals), "worst": dict(self.worst), "load_scale": self.load_scale,

@@ -29,6 +29,9 @@ STALL_GROWTH = 1.5      # a refinement that multiplied the points by at least th
 # estimate is twice a difference (error_estimate.SAFETY) and true errors lie at 0.4-1 of it, so two estimates within
 # this factor do not rank the solutions, and the last is on the finer mesh (lowest_estimate).
 RANKED = 2.0
+# What a stopped refinement returns (lowest_estimate), said where it stops.
+RETURNED = (f"Returned: the last solution, or an earlier one whose estimate was more than {RANKED:g}x lower (then named "
+            f"at the end of this message)")
 
 
 def _largest(entry: dict, quantities) -> float:
@@ -96,9 +99,9 @@ def _plateau_message(history: list[dict], tol: float, quantities) -> str | None:
     return (f"refinement stalled: the last {length} refinements grew the mesh {growth:.1f}x ({history[base]['points']} -> "
             f"{cur['points']} points) and none lowered the estimate ({_largest(history[base], quantities):.1e} -> "
             f"{_largest(cur, quantities):.1e}); the solution and its companion do not converge together here (largest "
-            f"differences: {_where(cur, quantities)}), so more points are unlikely to reach {tol:.0e}. The solution with "
-            f"the lowest estimate is returned: accept a larger tolerance, or look for a path constraint's junction or a kink inside an "
-            f"interval (the message's rough or non-smooth intervals)")
+            f"differences: {_where(cur, quantities)}), so more points are unlikely to reach {tol:.0e}. {RETURNED}: accept "
+            f"a larger tolerance, or look for a path constraint's junction or a kink inside an interval (the message's "
+            f"rough or non-smooth intervals)")
 
 
 def stall_message(history: list[dict], tol: float, quantities=("states", "multipliers")) -> str | None:
@@ -122,13 +125,14 @@ def stall_message(history: list[dict], tol: float, quantities=("states", "multip
     best = min(_largest(e, quantities) for e in history[1:] if "estimate" in e)
     why = (f"the {len(stalls)} refinements that grew the points {STALL_GROWTH:g}x or more and cut the estimate by "
            f"less" if len(stalls) >= 2 else "it is no lower than one reached before")
+    change = f"cut the estimate only {fall:.2g}x" if fall >= 1.0 else f"raised the estimate {1.0 / fall:.2g}x"
     return (f"refinement stalled: the last refinement grew the mesh {growth:.1f}x ({prev['points']} -> {cur['points']} "
-            f"points) and changed the estimate only {fall:.2g}x ({_largest(prev, quantities):.1e} -> "
-            f"{_largest(cur, quantities):.1e}; {why}), where a converging solution's falls faster than its points "
-            f"grow; the solution and its companion do not converge together here (largest differences: {where}), so "
-            f"more points would cost more than the last and are unlikely to reach {tol:.0e}. The solution with the "
-            f"lowest estimate is returned (the lowest reached: {best:.1e}): accept a larger tolerance, or look for a "
-            f"singular or non-unique arc, a path constraint's junction or a local optimum that moves with the mesh")
+            f"points) and {change} ({_largest(prev, quantities):.1e} -> {_largest(cur, quantities):.1e}; {why}), "
+            f"where a converging solution's falls faster than its points grow; the solution and its companion do not "
+            f"converge together here (largest differences: {where}), so more points would cost more than the last and "
+            f"are unlikely to reach {tol:.0e} (the lowest estimate reached: {best:.1e}). {RETURNED}: accept a larger "
+            f"tolerance, or look for a singular or non-unique arc, a path constraint's junction or a local optimum that "
+            f"moves with the mesh")
 
 
 def interrupted(record: dict, refinement: int, latest):

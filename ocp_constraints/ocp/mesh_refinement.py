@@ -229,7 +229,7 @@ def solve_to_tolerance(problem, tolerance, method=None, ipopt_options: dict | No
         The starting mesh (a :class:`Radau`); default 10 intervals of degree 5.
     max_refinements
         Refinements after the first solve; if the estimate is still above the tolerance then, the
-        solution with the lowest estimate is returned with ``mesh_refinement["met"]`` False and the reason.
+        last solution (or an earlier one of a much lower estimate) is returned, ``mesh_refinement["met"]`` False.
 
     Returns the :class:`~ocp_constraints.ocp.solution.OCPSolution` on the last mesh, ``mesh_refinement`` filled in
     (module notes). A mesh IPOPT does not solve (warm, then with IPOPT's own options capped at :data:`FALLBACK_FACTOR`
