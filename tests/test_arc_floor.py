@@ -89,3 +89,50 @@ def test_a_not_met_message_names_the_arc_whose_floor_holds_the_estimate(monkeypa
     assert est.arc_note(2.0 * held) == ""
     est.totals["states"] = 2.0 * held
     assert est.arc_note(0.5 * held) == ""
+
+
+def _pendulum_on_a_stop() -> oc.OptimalControlProblem:
+    """The eighth newcomer's pendulum (scripts/refinement_newcomer8): a 1 kg, 1 m rod on a hinge at its end, from rest
+    at psi = 1.0 to rest at 0.8 rad in 2 s, psi >= 0.5: it swings onto the stop, rides it, and is lifted off."""
+    import casadi as ca
+
+    model = oc.Model("stop_pendulum", gravity=(0.0, -9.81, 0.0))
+    rod = model.add_body("rod", 1.0, 1.0 / 12 * np.diag([1.0, 0.0, 1.0]), rotation="321")
+    oc.joints.revolute(model, "hinge", rod.point("A", [0.0, 0.5, 0.0]), axis=(0, 0, 1))
+    model.add_torque("motor", rod, ca.vertcat(0, 0, model.add_input("motor")))
+    pr = oc.OptimalControlProblem(model, t_final=2.0)
+    pr.initial({"rod.psi": 1.0, "rod.omega_z": 0.0})
+    pr.final({"rod.psi": 0.8, "rod.omega_z": 0.0})
+    pr.bound("rod.psi", lower=0.5)
+    pr.minimize_effort(["motor"])
+    return pr
+
+
+def test_a_state_bounds_junction_put_at_a_mesh_point_floors_the_hinge_forces_estimate():
+    """At a stop's entry and exit the hinge force kinks. A junction put at a mesh point may lie anywhere in the half gap
+    to the interval's first collocation point, and the interval's polynomial misses the kink by up to the slope
+    change times that: the multipliers' estimate is at least that (here computed from the solution's own points,
+    two on each side). At 1e-3 the newcomer's true hinge-force error was 1.25x the estimate without it (0.23x with:
+    results/bench/refinement_newcomer8.md, follow-up)."""
+    from ocp_constraints.ocp.error_estimate import estimate_error
+
+    problem = _pendulum_on_a_stop()
+    # Mesh points every 0.125 s and at 0.69375 s, near the entry (0.693752 s) and exit (1.375181 s) of the stop.
+    mesh = tuple(sorted([*np.linspace(0.0, 1.0, 17), 0.346875]))
+    sol = problem.solve(oc.Radau(mesh=mesh, degrees=(5,) * 17))
+    companion = problem.solve(oc.Radau(mesh=mesh, degrees=(7,) * 17), warm_start=sol)
+    switches = detect_switches(sol)
+    at_points = [w for w in switches if w.kind == "junction" and w.source == "state" and not w.inside]
+    assert at_points, [(w.kind, w.fraction, w.inside) for w in switches]
+    est = estimate_error(sol, companion, switches=switches)
+    tr, t, T = sol.transcription, sol.t, sol.t_final
+    forces = np.array([sol.sample(f"hinge.{c}.lambda") for c in ("v1", "v2")]) / est.load_scale
+    for w in at_points:
+        k = w.interval
+        half_gap = 0.5 * (tr.fractions[tr.offsets[k] + 1] - tr.scheme.mesh_fractions[k]) * T
+        b, a = np.flatnonzero(t < w.fraction * T)[-2:], np.flatnonzero(t > w.fraction * T)[:2]
+        change = np.abs((forces[:, a[1]] - forces[:, a[0]]) / (t[a[1]] - t[a[0]])
+                        - (forces[:, b[1]] - forces[:, b[0]]) / (t[b[1]] - t[b[0]])).max()
+        assert change > 0.0
+        assert est.per_interval["multipliers"][k] >= half_gap * change * (1 - 1e-12)
+        assert est.totals["multipliers"] >= half_gap * change * (1 - 1e-12)
