@@ -1,7 +1,8 @@
 """The error an interior point leaves on a state bound's arc, which a companion shares and cannot see.
 
-Where a coordinate or speed is held at its bound over an arc, the exact solution lies *on* the bound there, and a
-coordinate held at a constant bound does not move. IPOPT's interior point holds a bound ``mu / z`` inside it, ``z``
+Where a coordinate or speed is held at its bound over an arc (or a path constraint of the coordinates, speeds and
+time alone, ``subject_to``), the exact solution lies *on* the bound there, and a coordinate held at a constant bound
+does not move (a path constraint of the coordinates and time: its rate is zero). IPOPT's interior point holds a bound ``mu / z`` inside it, ``z``
 the bound's multiplier, and where the bound carries little (``z`` small: Bryson and Denham's block on its wall, the
 push zero along the arc) that gap is not negligible and varies along the arc. The companion, solved the same way,
 has the same gap: their difference, the estimate, does not see it. On Bryson-Denham at 1e-6 the block's speed along
@@ -28,6 +29,9 @@ left out: there the exact solution leaves the bound, and its distance and rate a
 """
 from __future__ import annotations
 
+from functools import partial
+
+import casadi as ca
 import numpy as np
 
 from .switch_detection import ACTIVE, TIGHT, activity
@@ -35,49 +39,82 @@ from .switch_detection import ACTIVE, TIGHT, activity
 
 def arc_floor(solution, switches) -> tuple[np.ndarray, dict[str, float]]:
     """Per mesh interval of ``solution``, the largest error its states are known to have on a located arc of a state
-    bound (module notes; zero where there is none), and per bounded quantity with such an arc, its largest.
-    ``switches``: the solution's located switches (:func:`.switch_detection.detect_switches`)."""
+    bound or a path constraint of the states (module notes; zero where there is none), and per quantity with such an
+    arc, its largest. ``switches``: the solution's located switches (:func:`.switch_detection.detect_switches`)."""
     tr = solution.transcription
-    pr = getattr(tr, "user_problem", tr.problem)
     mesh, frac = tr.scheme.mesh_fractions, tr.fractions
     floor, held = np.zeros(tr.scheme.intervals), {}
-    coordinates, speeds = pr.model.coordinate_names, pr.model.speed_names
-    bounded = [(n, lo, hi) for n, (lo, hi) in pr.bounds.items() if n in coordinates or n in speeds]
-    if not bounded:
-        return floor, held
-    traj = solution.trajectory
-    rates = rate_rows = None
-    for name, lo, hi in bounded:
-        v = np.asarray(solution.sample(name), float)
-        s, eps = activity(v, float(lo), float(hi))
+    for name, g, lo, hi, errors in _held_quantities(solution):
+        s, eps = activity(g, lo, hi)
         junctions = np.array(sorted(w.fraction for w in switches if w.quantity == name and w.kind == "junction"))
         for a, b in _runs(s):
             # The run of points near the bound takes in the approach (within ACTIVE of the scale); the arc lies
             # between the first and the last junction located over it, or the horizon's ends.
-            over = junctions[(junctions >= frac[max(a - 1, 0)]) & (junctions <= frac[min(b + 1, len(v) - 1)])]
+            over = junctions[(junctions >= frac[max(a - 1, 0)]) & (junctions <= frac[min(b + 1, len(g) - 1)])]
             t_in = 0.0 if a == 0 else (float(over[0]) if over.size else None)
-            t_out = 1.0 if b == len(v) - 1 else (float(over[-1]) if over.size else None)
+            t_out = 1.0 if b == len(g) - 1 else (float(over[-1]) if over.size else None)
             if t_in is None or t_out is None or t_out <= t_in:
                 continue                  # an arc whose entry or exit is not located: where it lies is not known
-            bound = float(lo) if s[a] < 0 else float(hi)
+            bound = lo if s[a] < 0 else hi
             for k in np.flatnonzero((mesh[:-1] >= t_in) & (mesh[1:] <= t_out)):
                 points = np.asarray(tr.interval_points(int(k)))
-                gap = float(np.abs(v[points] - bound).max())
-                if gap > eps * TIGHT / ACTIVE:
+                if np.abs(g[points] - bound).max() > eps * TIGHT / ACTIVE:
                     continue      # not held tightly: the two junctions may bound a dip off the bound, not an arc
-                if name in coordinates:
-                    if rates is None:
-                        eqs, P = pr.eqs, len(frac)
-                        q, u = np.asarray(traj.q, float).T, np.asarray(traj.u, float).T
-                        rates = np.asarray(eqs.coordinate_rates.map(P)(q, u), float)
-                        N = np.asarray(eqs.rate_matrix.map(P)(q), float).reshape(len(coordinates), P, -1)
-                        rate_rows = np.abs(N).sum(axis=2)                    # ||N_i||_1 at every point
-                    i = coordinates.index(name)
-                    norm = np.maximum(rate_rows[i, points], 1e-300)
-                    gap = max(gap, float((np.abs(rates[i, points]) / norm).max()))
-                floor[k] = max(floor[k], gap)
-                held[name] = max(held.get(name, 0.0), gap)
+                error = float(errors(points, bound).max())
+                floor[k] = max(floor[k], error)
+                held[name] = max(held.get(name, 0.0), error)
     return floor, held
+
+
+def _held_quantities(solution) -> list:
+    """``(name, values at the points, lower, upper, errors)`` of every bound on a coordinate or speed and every path
+    constraint of the coordinates, speeds and time alone; ``errors(points, bound)``: the states' error each point
+    is known to have if the exact solution lies on ``bound`` there (module notes). A path constraint ``g`` the same
+    through its gradient: ``|g - bound| / ||dg/dx||_1``, and where ``g`` holds no speed, its rate
+    ``g' = dg/dq q' + dg/dt`` (zero on the arc) over ``||dg/dq N||_1`` (Bryson-Denham's wall written as a path
+    constraint, ``subject_to(x, upper=1/9)``: at 1e-6 the true error was 1.72x the estimate without it)."""
+    tr = solution.transcription
+    pr = getattr(tr, "user_problem", tr.problem)
+    e, traj, t = pr.eqs, solution.trajectory, solution.t
+    coordinates, speeds = pr.model.coordinate_names, pr.model.speed_names
+    bounded = [(n, float(lo), float(hi)) for n, (lo, hi) in pr.bounds.items() if n in coordinates or n in speeds]
+    paths = [c for c in pr.path_constraints if not ca.depends_on(c.expression, ca.vertcat(e.inputs, pr.lam))]
+    if not bounded and not paths:
+        return []
+    P = len(t)
+    q, u = np.asarray(traj.q, float).T, np.asarray(traj.u, float).T
+    rates = np.asarray(e.coordinate_rates.map(P)(q, u), float)                       # q' at every point
+    N = np.asarray(e.rate_matrix.map(P)(q), float).reshape(e.nq, P, e.nu)          # N(q), point by point
+    out, ones = [], np.ones(P)
+    for name, lo, hi in bounded:
+        g = np.asarray(solution.sample(name), float)
+        if name in coordinates:
+            i = coordinates.index(name)
+            errors = partial(_errors, g=g, scale=ones, rate=rates[i], through=np.abs(N[i]).sum(axis=1))   # ||N_i||_1
+        else:
+            errors = partial(_errors, g=g, scale=ones)
+        out.append((name, g, lo, hi, errors))
+    x = ca.vertcat(e.q, e.u)
+    for c in paths:
+        f = ca.Function("held", [e.q, e.u, e.t], [c.expression, ca.jacobian(c.expression, x), ca.jacobian(c.expression, e.t)])
+        g, dg, dt = (np.asarray(v, float) for v in f.map(P)(q, u, t[None, :]))
+        g, dg, dt = g.ravel(), dg.reshape(P, x.numel()).T, dt.ravel()             # dg: dg/dx, nx x P
+        gradient = np.abs(dg).sum(axis=0)                                            # ||dg/dx||_1 at every point
+        if ca.depends_on(c.expression, e.u):
+            errors = partial(_errors, g=g, scale=gradient)
+        else:
+            dq = dg[: e.nq]
+            rate = np.einsum("ip,ip->p", dq, rates) + dt                              # g' = dg/dq q' + dg/dt
+            through = np.abs(np.einsum("ip,ipj->pj", dq, N)).sum(axis=1)             # ||dg/dq N||_1
+            errors = partial(_errors, g=g, scale=gradient, rate=rate, through=through)
+        out.append((c.label, g, float(c.lower), float(c.upper), errors))
+    return out
+
+
+def _errors(points, bound: float, g, scale, rate=None, through=None) -> np.ndarray:
+    """At ``points``: ``|g - bound| / scale``, and with a ``rate`` (zero on the arc) at least ``|rate| / through``."""
+    out = np.abs(g[points] - bound) / np.maximum(scale[points], 1e-300)
+    return out if rate is None else np.maximum(out, np.abs(rate[points]) / np.maximum(through[points], 1e-300))
 
 
 def _runs(s: np.ndarray) -> list[tuple[int, int]]:

@@ -66,7 +66,7 @@ class ErrorEstimate:
         if not self.arcs or self.totals["states"] <= tolerance or self.mesh_states > tolerance or any(
                 self.totals[q] > tolerance for q in gated if q != "states"):
             return ""
-        return (f"estimate above {tolerance:g} only where a state bound holds (states {self.totals['states']:.1e}, "
+        return (f"estimate above {tolerance:g} only where a bound on the states holds (states {self.totals['states']:.1e}, "
                 f"{self.mesh_states:.1e} from the mesh)")
 
     def arc_note(self, tolerance: float) -> str:
@@ -77,7 +77,7 @@ class ErrorEstimate:
             return ""
         name, value = max(held.items(), key=lambda item: item[1])
         return (f"; the states' estimate ({value:.1e}) is twice the solution's own error on the arc where '{name}' "
-                f"holds its bound (its gap from the bound, or for a coordinate its rate, exactly 0 on the arc): IPOPT's "
+                f"holds its bound (its gap from the bound, or its rate, exactly 0 on the arc): IPOPT's "
                 f"interior point keeps a bound mu/z inside it, by a gap that varies along the arc; the companion has the "
                 f"same error, and no mesh reduces it (ocp/arc_floor.py); accept a tolerance above it")
 
