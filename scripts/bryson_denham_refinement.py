@@ -1,6 +1,6 @@
 """``examples/bryson_denham.py``'s problem solved to each tolerance, its estimate against the closed form (issue 19).
 
-    python scripts/bryson_denham_refinement.py [--tolerances 1e-3 1e-4 1e-5 1e-6] [--cap-s 300]
+    python scripts/bryson_denham_refinement.py [--tolerances 1e-3 1e-4 1e-5 1e-6] [--cap-s 300] [--as-path-constraint]
 
 Per tolerance, in its own process (killed past ``--cap-s`` of wall time): met, final intervals and points, solves,
 the states' estimate and true error (``max |x - x*|, |v - v*|`` over 2,001 instants against Bryson and Ho's closed
@@ -33,8 +33,9 @@ def closed_form(t: np.ndarray, wall: float = WALL) -> tuple[np.ndarray, np.ndarr
             -2 / (3 * wall) * r)
 
 
-def problem():
-    """The example's problem, built by the example's own code (everything before its solve)."""
+def problem(as_path: bool = False):
+    """The example's problem, built by the example's own code (everything before its solve); ``as_path``: its wall
+    written as a path constraint, ``subject_to(x, upper=1/9)``, instead of a bound."""
     source = (ROOT / "examples" / "bryson_denham.py").read_text().split("sol = ocp.solve")[0]
     argv, sys.argv = sys.argv, ["bryson_denham.py"]
     try:
@@ -42,11 +43,15 @@ def problem():
         exec(compile(source, "examples/bryson_denham.py", "exec"), scope)
     finally:
         sys.argv = argv
-    return scope["ocp"]
+    ocp = scope["ocp"]
+    if as_path:
+        del ocp.bounds["block.x"]
+        ocp.subject_to(ocp.quantity("block.x"), upper=WALL, label="wall")
+    return ocp
 
 
-def one(tolerance: float) -> dict:
-    ocp = problem()
+def one(tolerance: float, as_path: bool = False) -> dict:
+    ocp = problem(as_path)
     cpu = time.process_time()
     sol = ocp.solve(tolerance=tolerance, progress=False)
     cpu = time.process_time() - cpu
@@ -66,16 +71,18 @@ def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--tolerances", nargs="*", type=float, default=[1e-3, 1e-4, 1e-5, 1e-6])
     ap.add_argument("--cap-s", type=float, default=300.0)
+    ap.add_argument("--as-path-constraint", action="store_true", help="the wall as subject_to(x, upper=1/9)")
     ap.add_argument("--one", type=float, help=argparse.SUPPRESS)
     a = ap.parse_args(argv)
     if a.one is not None:
-        print("ROW " + json.dumps(one(a.one)))
+        print("ROW " + json.dumps(one(a.one, a.as_path_constraint)))
         return 0
     print("| tolerance | met | intervals / points | solves | states: true / estimate (ratio) | inputs (u, rel.): true / estimate | CPU (s) |")
     print("|---|---|---|---|---|---|---|")
     for tol in a.tolerances:
         try:
-            out = subprocess.run([sys.executable, __file__, "--one", repr(tol)], capture_output=True, text=True,
+            out = subprocess.run([sys.executable, __file__, "--one", repr(tol)] + ["--as-path-constraint"] * a.as_path_constraint,
+                                 capture_output=True, text=True,
                                  timeout=a.cap_s, check=True).stdout
         except subprocess.TimeoutExpired:
             print(f"| {tol:g} | cap: not done within {a.cap_s:g} s of wall time | | | | | |", flush=True)
