@@ -56,8 +56,9 @@ class ErrorEstimate:
     # Per quantity and interval, the part of the difference made there (:func:`made_here`), where
     # ``per_interval`` also holds the error carried in from elsewhere (:meth:`refinement_ratio`).
     local: dict[str, np.ndarray] = field(default_factory=dict)
-    # Per state-bounded quantity, the states' floor on its located arcs (already times SAFETY; .arc_floor), and the
-    # states' total without it (what a finer mesh can lower); None where there is no arc.
+    # Per quantity held on a located arc (a state bound, a path constraint of the states), the states' floor there
+    # (already times SAFETY; .arc_floor), and the states' total without it (what a finer mesh can lower); None where
+    # there is no arc.
     arcs: dict[str, float] = field(default_factory=dict)
     mesh_states: float | None = None
 
@@ -70,7 +71,7 @@ class ErrorEstimate:
                 f"{self.mesh_states:.1e} from the mesh)")
 
     def arc_note(self, tolerance: float) -> str:
-        """For a message: where the states' estimate above ``tolerance`` is the floor of a state bound's arc (the
+        """For a message: where the states' estimate above ``tolerance`` is the floor of an arc on a bound (the
         interior point's gap from the bound, which no mesh reduces, :mod:`.arc_floor`), that sentence; else ""."""
         held = {n: v for n, v in self.arcs.items() if tolerance < v >= self.totals["states"]}
         if not held:
@@ -290,8 +291,9 @@ def estimate_error(solution, companion, safety: float = SAFETY, windows=(), swit
     smears a jump over its bracket, holding the bounds loosely there, and the companion smears it alike:
     the bang-bang block at 1e-4, true state error 5.9e-6, the companion's difference 2.1e-6, the effect
     1.2e-5). At an input's kink inside an interval the multipliers' and inputs' estimate is at least the
-    kink's own size (:func:`_kink_floor`); on a located arc of a state bound the states' is at least ``safety`` times
-    the solution's own gap from the bound there (:func:`.arc_floor.arc_floor`: the companion shares it)."""
+    kink's own size (:func:`_kink_floor`); on a located arc of a state bound or a path constraint of the states the
+    states' is at least ``safety`` times the solution's own error there (:func:`.arc_floor.arc_floor`: its gap from
+    the bound and its rate, which the companion shares)."""
     fractions, owner = sample_grid(solution.transcription)
     ours, theirs = values_at(solution, fractions), values_at(companion, fractions)
     est = compare(ours, theirs, fractions, owner, solution.transcription.scheme.intervals, names(solution), windows)
@@ -304,7 +306,7 @@ def estimate_error(solution, companion, safety: float = SAFETY, windows=(), swit
         est.local["states"][w.interval] = max(est.local["states"][w.interval], w.effect)
         est.totals["states"] = max(est.totals["states"], w.effect)
     _kink_floor(solution, est, switches)
-    # On a state bound's arc: the interior point's gap from the bound, which the companion shares (.arc_floor).
+    # On an arc of a bound on the states: the interior point's gap from it, which the companion shares (.arc_floor).
     # Only in the total: refinement cannot lower it (ErrorEstimate.refinement_ratio, held_by_arcs).
     _, held = arc_floor(solution, switches)
     est.arcs = {name: safety * value for name, value in held.items()}
