@@ -29,7 +29,7 @@ left out: there the exact solution leaves the bound, and its distance and rate a
 """
 from __future__ import annotations
 
-from functools import partial
+from functools import cache
 
 import casadi as ca
 import numpy as np
@@ -83,38 +83,62 @@ def _held_quantities(solution) -> list:
         return []
     P = len(t)
     q, u = np.asarray(traj.q, float).T, np.asarray(traj.u, float).T
-    rates = np.asarray(e.coordinate_rates.map(P)(q, u), float)                       # q' at every point
-    N = np.asarray(e.rate_matrix.map(P)(q), float).reshape(e.nq, P, e.nu)          # N(q), point by point
-    out, ones = [], np.ones(P)
+
+    @cache
+    def kinematics() -> tuple[np.ndarray, np.ndarray]:
+        """q' and N(q) at every point (nq x P, nq x P x nu): evaluated only where an arc is found."""
+        return (np.asarray(e.coordinate_rates.map(P)(q, u), float),
+                np.asarray(e.rate_matrix.map(P)(q), float).reshape(e.nq, P, e.nu))
+
+    def coordinate(g: np.ndarray, i: int):
+        def errors(points, bound):
+            rates, N = kinematics()
+            return _errors(g[points] - bound, 1.0, rates[i, points], np.abs(N[i, points]).sum(axis=1))   # ||N_i||_1
+        return errors
+
+    def speed(g: np.ndarray):
+        return lambda points, bound: _errors(g[points] - bound, 1.0)
+
+    def path(g: np.ndarray, dg: np.ndarray, dt: np.ndarray, holds_speeds: bool):
+        def errors(points, bound):
+            gradient = np.abs(dg[:, points]).sum(axis=0)                             # ||dg/dx||_1
+            if holds_speeds:
+                return _errors(g[points] - bound, gradient)
+            rates, N = kinematics()
+            dq = dg[: e.nq, points]
+            rate = np.einsum("ip,ip->p", dq, rates[:, points]) + dt[points]         # g' = dg/dq q' + dg/dt
+            through = np.abs(np.einsum("ip,ipj->pj", dq, N[:, points])).sum(axis=1)  # ||dg/dq N||_1
+            return _errors(g[points] - bound, gradient, rate, through)
+        return errors
+
+    out = []
     for name, lo, hi in bounded:
         g = np.asarray(solution.sample(name), float)
-        if name in coordinates:
-            i = coordinates.index(name)
-            errors = partial(_errors, g=g, scale=ones, rate=rates[i], through=np.abs(N[i]).sum(axis=1))   # ||N_i||_1
-        else:
-            errors = partial(_errors, g=g, scale=ones)
-        out.append((name, g, lo, hi, errors))
-    x = ca.vertcat(e.q, e.u)
+        out.append((name, g, lo, hi, coordinate(g, coordinates.index(name)) if name in coordinates else speed(g)))
     for c in paths:
-        f = ca.Function("held", [e.q, e.u, e.t], [c.expression, ca.jacobian(c.expression, x), ca.jacobian(c.expression, e.t)])
-        g, dg, dt = (np.asarray(v, float) for v in f.map(P)(q, u, t[None, :]))
-        g, dg, dt = g.ravel(), dg.reshape(P, x.numel()).T, dt.ravel()             # dg: dg/dx, nx x P
-        gradient = np.abs(dg).sum(axis=0)                                            # ||dg/dx||_1 at every point
-        if ca.depends_on(c.expression, e.u):
-            errors = partial(_errors, g=g, scale=gradient)
-        else:
-            dq = dg[: e.nq]
-            rate = np.einsum("ip,ip->p", dq, rates) + dt                              # g' = dg/dq q' + dg/dt
-            through = np.abs(np.einsum("ip,ipj->pj", dq, N)).sum(axis=1)             # ||dg/dq N||_1
-            errors = partial(_errors, g=g, scale=gradient, rate=rate, through=through)
-        out.append((c.label, g, float(c.lower), float(c.upper), errors))
+        g, dg, dt = (np.asarray(v, float) for v in _path_function(pr, c).map(P)(q, u, t[None, :]))
+        dg = dg.reshape(P, e.nq + e.nu).T                                             # dg/dx, nx x P
+        out.append((c.label, g.ravel(), float(c.lower), float(c.upper),
+                    path(g.ravel(), dg, dt.ravel(), ca.depends_on(c.expression, e.u))))
     return out
 
 
-def _errors(points, bound: float, g, scale, rate=None, through=None) -> np.ndarray:
-    """At ``points``: ``|g - bound| / scale``, and with a ``rate`` (zero on the arc) at least ``|rate| / through``."""
-    out = np.abs(g[points] - bound) / np.maximum(scale[points], 1e-300)
-    return out if rate is None else np.maximum(out, np.abs(rate[points]) / np.maximum(through[points], 1e-300))
+def _path_function(pr, constraint) -> ca.Function:
+    """``(q, u, t) -> (g, dg/dx, dg/dt)`` of a path constraint's expression, built once per expression and kept on the
+    problem (each refinement estimates twice; an edited constraint is another expression, so another entry)."""
+    store = pr.__dict__.setdefault("_held_functions", {})
+    kept = store.get(id(constraint.expression))
+    if kept is None or kept[0] is not constraint.expression:     # the expression is kept too: its id is not reused
+        e, g = pr.eqs, constraint.expression
+        kept = store[id(g)] = (g, ca.Function("held", [e.q, e.u, e.t],
+                                              [g, ca.jacobian(g, ca.vertcat(e.q, e.u)), ca.jacobian(g, e.t)]))
+    return kept[1]
+
+
+def _errors(gap: np.ndarray, scale, rate=None, through=None) -> np.ndarray:
+    """``|gap| / scale``, and with a ``rate`` (zero on the arc) at least ``|rate| / through``."""
+    out = np.abs(gap) / np.maximum(scale, 1e-300)
+    return out if rate is None else np.maximum(out, np.abs(rate) / np.maximum(through, 1e-300))
 
 
 def _runs(s: np.ndarray) -> list[tuple[int, int]]:
