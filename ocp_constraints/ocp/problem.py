@@ -304,6 +304,11 @@ class OptimalControlProblem:
             from .mesh_refinement import check_max_refinements, check_tolerance, solve_to_tolerance, start_scheme
 
             tolerance = check_tolerance(tolerance)
+            if not (self.integral_terms or self.terminal_terms or self.time_weight):
+                raise ModelError(f"solve(tolerance=...) needs an objective: '{self.model.name}' has none, so every motion "
+                                 f"that meets its constraints is a solution and no mesh converges to one; add one "
+                                 f"(minimize_effort, minimize_integral, minimize_terminal, minimize_final_time, track), or "
+                                 f"solve on a fixed mesh, solve(oc.Radau(N, degree=p)), for a feasible motion")
             if starts != 1:
                 raise ModelError("starts > 1 and tolerance are not combined: refine the best start's solution by "
                                  "passing it as warm_start with tolerance=...")

@@ -38,7 +38,7 @@ from .bounds import variable_bounds
 from .guess import consistent_guess, from_solution
 from .interpolation import interpolation_matrix
 from .layout import Layout
-from .objective_scaling import OPTION as OBJECTIVE_SCALING, objective_scale
+from .objective_scaling import OPTION as OBJECTIVE_SCALING, objective_scale, small_objective_scale
 from .progress import IterationMonitor, stop_on_signals
 from .solution import OCPSolution
 from .solver_threads import ipopt_solver
@@ -239,6 +239,10 @@ class Transcription(ElementKinds):
         x0 = self.initial_guess() if warm_start is None else self.guess_from(warm_start)
         if scale_objective and OBJECTIVE_SCALING not in ipopt_options:
             opts[OBJECTIVE_SCALING] = objective_scale(self.block, x0)
+        if warm_start is not None and OBJECTIVE_SCALING not in ipopt_options:
+            # Started at an optimum: a small objective is brought to 1 now, not after a solve (objective_scaling).
+            small = small_objective_scale(float(self.block.grad_f(x0, [])[0]), opts.get(OBJECTIVE_SCALING, 1.0))
+            opts[OBJECTIVE_SCALING] = max(opts.get(OBJECTIVE_SCALING, 1.0), small or 0.0)
         started = time.perf_counter()
         if self._solver is None or opts != self._solver_options:
             self._monitor = IterationMonitor(self.nlp["x"].numel(), self.nlp["g"].numel())
@@ -276,7 +280,22 @@ class Transcription(ElementKinds):
                 f"the last iterate is kept in .solution",
                 solution,
             )
+        small = None if OBJECTIVE_SCALING in ipopt_options else small_objective_scale(
+            solution.objective, opts.get(OBJECTIVE_SCALING, 1.0))
+        if small is not None:
+            return self._solve_rescaled(solution, small, ipopt_options, progress)
         return solution
+
+    def _solve_rescaled(self, first: OCPSolution, scale: float, ipopt_options: dict, progress) -> OCPSolution:
+        """The solve again from ``first``, an "optimum" whose objective was too small for IPOPT's absolute
+        tolerances, with the objective scaled by ``scale`` (:func:`.objective_scaling.small_objective_scale`);
+        the first solve's iterations and time are counted in the solution's (``stats["rescaled"]`` says so)."""
+        again = self.solve({**ipopt_options, OBJECTIVE_SCALING: scale}, first, progress=progress)
+        again.stats["rescaled"] = {"objective_before": first.objective, "iterations_before": first.iterations,
+                                   "objective_scale": scale}
+        again.stats["iter_count"] = again.iterations + first.iterations
+        again.wall_time = {k: v + first.wall_time.get(k, 0.0) for k, v in again.wall_time.items()}
+        return again
 
 
 # IPOPT's statuses that mean a limit was reached, not a failure of the problem: the option that set the limit.
