@@ -434,6 +434,9 @@ def test_a_mesh_ipopt_cannot_solve_stops_the_refinement_with_the_last_estimated_
     assert record["estimate"] == record["history"][0]["estimate"]
     assert "Maximum_Iterations_Exceeded" in record["history"][1]["failed"]
     assert record["message"].startswith("stopped at refinement 1") and "solution of refinement 0 (4 intervals" in record["message"]
+    # an estimate far above the tolerance: the first mesh does not resolve the motion, and the advice says so
+    assert record["estimate"]["states"] > 100 * 1e-9
+    assert "start from a finer mesh, e.g. solve(oc.Radau(16, degree=5), tolerance=...)" in record["message"]
 
 
 
