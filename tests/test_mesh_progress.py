@@ -153,3 +153,14 @@ def test_a_stall_that_lowered_the_estimate_a_little_says_it_cut_it():
     fell = _history((51, 1.7e-2), (141, 3.4e-3), (300, 2.9e-3), (700, 2.5e-3))
     msg = stall_message(fell, 3e-5)
     assert msg is not None and "cut the estimate only 1.2x (2.9e-03 -> 2.5e-03" in msg
+
+
+def test_a_stall_at_a_vanishing_objective_says_the_solution_is_not_unique():
+    # a terminal target reached exactly (measured: J = 2.2e-21, 141 -> 617 points for no lower estimate)
+    stalled = _history((31, 1.7e-3), (141, 3.0e-1), (617, 3.1e-1))
+    for entry in stalled:
+        entry["objective"] = 2.2e-21
+    assert "the solution is not unique (add a term that picks one, e.g. minimize_effort)" in stall_message(stalled, 1e-5)
+    for entry in stalled:
+        entry["objective"] = 0.5
+    assert "not unique (add" not in stall_message(stalled, 1e-5)

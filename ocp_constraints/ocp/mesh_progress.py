@@ -132,7 +132,17 @@ def stall_message(history: list[dict], tol: float, quantities=("states", "multip
             f"converge together here (largest differences: {where}), so more points would cost more than the last and "
             f"are unlikely to reach {tol:.0e} (the lowest estimate reached: {best:.1e}). {RETURNED}: accept a larger "
             f"tolerance, or look for a singular or non-unique arc, a path constraint's junction or a local optimum that "
-            f"moves with the mesh")
+            f"moves with the mesh" + _zero_objective(cur))
+
+
+def _zero_objective(entry: dict) -> str:
+    """A hint where the objective vanishes at the solution (a target that a terminal term alone asks for, reached
+    exactly): every motion that reaches it is optimal, so the solution is not unique and no mesh converges to one."""
+    J = entry.get("objective")
+    if J is None or not abs(J) < 1e-12:
+        return ""
+    return (f"; here the objective is {J:.1e} at the solution: every motion that reaches it is optimal, so the solution "
+            f"is not unique (add a term that picks one, e.g. minimize_effort)")
 
 
 def interrupted(record: dict, refinement: int, latest):
