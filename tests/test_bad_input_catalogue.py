@@ -648,6 +648,9 @@ CATALOGUE: dict[str, tuple[str, str, list[Case]]] = {
              ("path constraint 'psi window'", "nan")),
         Case("minimize_effort(['motor'], weight=nan)", with_rod_ocp(
             lambda p: p.minimize_effort(["motor"], weight=float("nan"))), E.ModelError, ("'effort'", "finite")),
+        Case("track('rod.psi', scipy's CubicSpline): a reference that is not a CasADi expression of t", with_rod_ocp(
+            lambda p: p.track("rod.psi", __import__("scipy.interpolate").interpolate.CubicSpline([0, 1, 2], [0, 1, 0]))),
+             E.ModelError, ("track('rod.psi', reference)", "ca.pw_lin", "it returned nan")),
         Case("initial({'rod.pssi': 0}): a misspelt quantity", with_rod_ocp(lambda p: p.initial({"rod.pssi": 0.0})),
              E.ModelError, ("'rod.pssi'", "did you mean 'rod.psi'")),
         Case("sol.sample('hinge@rod.F_x'): a joint load asked of sample()", lambda: (lambda p: (

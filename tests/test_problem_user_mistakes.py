@@ -44,6 +44,24 @@ def test_a_non_finite_objective_weight_is_refused_with_the_term(weight):
     assert ocp.integral_terms == []
 
 
+def test_a_reference_written_with_numpy_or_scipy_is_refused_naming_what_to_write_instead():
+    # SciPy's CubicSpline of the CasADi symbol returns NaN and math.sin's float() of it NaN: before, IPOPT stopped
+    # with 'Invalid_Number_Detected' after 0 iterations, naming nothing.
+    from scipy.interpolate import CubicSpline
+
+    spline = CubicSpline([0.0, 0.5, 1.0], [0.0, 1.0, 0.0])
+    ocp = _disk_on_a_plane()
+    for reference, said in ((spline, "it returned nan"), (math.sin, "it returned nan"),
+                            (lambda t: ca.vertcat(t, t), "it returned 2 x 1 values"),
+                            (lambda t: t.no_such_method(), "calling it raised AttributeError")):
+        with pytest.raises(oc.ModelError, match=rf"track\('disk.x', reference\).*ca.pw_lin.*{said}"):
+            ocp.track("disk.x", reference)
+    assert ocp.integral_terms == []
+    ocp.track("disk.x", lambda t: ca.pw_lin(t, ca.DM([0.0, 0.5, 1.0]), ca.DM([0.0, 1.0, 0.0])))    # the advice works
+    ocp.track("disk.y", lambda t: 0.3)                                                               # a constant is fine
+    assert len(ocp.integral_terms) == 2
+
+
 def test_a_non_finite_final_time_weight_is_refused():
     ocp = _disk_on_a_plane()
     ocp.t_final_bounds = (0.5, 2.0)

@@ -20,7 +20,7 @@ import casadi as ca
 import numpy as np
 
 from .compiled_elements import check_policy
-from .terms import IntegralTerm, PathConstraint, TerminalTerm, finite as _finite
+from .terms import IntegralTerm, PathConstraint, TerminalTerm, finite as _finite, reference_expression
 from .solver_threads import one_blas_thread
 from .schemes import Scheme
 from ..mechanics.equations import SystemEquations
@@ -168,8 +168,11 @@ class OptimalControlProblem:
         self.time_weight += _finite(weight, "weight of the final time")
 
     def track(self, name: str, reference: Callable, weight: float = 1.0) -> None:
-        """``weight * int (quantity - reference(t))^2 dt``; ``reference`` takes a CasADi time."""
-        self.minimize_integral((self.quantity(name) - reference(self.eqs.t)) ** 2, weight, f"track {name}")
+        """``weight * int (quantity - reference(t))^2 dt``; ``reference`` takes a CasADi time (for samples:
+        ``lambda t: ca.pw_lin(t, ca.DM(times), ca.DM(values))``)."""
+        quantity = self.quantity(name)
+        self.minimize_integral((quantity - reference_expression(reference, self.eqs.t, name)) ** 2, weight,
+                               f"track {name}")
 
     # -- constraints -------------------------------------------------------------------------
     def bound(self, name: str, lower: float = -np.inf, upper: float = np.inf) -> None:

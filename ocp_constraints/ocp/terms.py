@@ -41,3 +41,23 @@ def finite(value, what: str) -> float:
     if not np.isfinite(v):
         raise ModelError(f"the {what} must be a finite number, got {value!r}")
     return v
+
+
+def reference_expression(reference, t: ca.SX, name: str) -> ca.SX:
+    """``reference(t)`` for CasADi's symbolic time ``t`` (:meth:`.problem.OptimalControlProblem.track`), or a
+    :class:`ModelError` that says what to write instead. A NumPy or SciPy function of the symbol either raises or,
+    as SciPy's ``CubicSpline`` does, returns NaN, which reached IPOPT as 'Invalid_Number_Detected' after 0
+    iterations, naming nothing."""
+    advice = (f"track('{name}', reference): reference(t) must be a scalar expression of CasADi's symbolic time t, built "
+              f"with CasADi operations (ca.sin(t), ca.if_else(...)); NumPy and SciPy functions such as scipy's CubicSpline "
+              f"or interp1d do not take a CasADi symbol. For samples (times, values): ca.pw_lin(t, ca.DM(times), "
+              f"ca.DM(values)), linear between them")
+    try:
+        value = ca.SX(reference(t))
+    except Exception as exc:        # noqa: BLE001 - any failure of the user's function is this mistake
+        raise ModelError(f"{advice}; calling it raised {type(exc).__name__}: {exc}") from exc
+    if value.numel() != 1:
+        raise ModelError(f"{advice}; it returned {value.size1()} x {value.size2()} values")
+    if not ca.depends_on(value, t) and not np.isfinite(float(ca.DM(ca.evalf(value)))):
+        raise ModelError(f"{advice}; it returned {float(ca.DM(ca.evalf(value)))}")
+    return value
