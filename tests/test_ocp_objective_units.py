@@ -49,7 +49,8 @@ def _errors(sol, reference, mass: float, length: float) -> tuple[float, float]:
 
 def test_a_rod_of_one_centimetre_and_one_gram_meets_the_reference_as_the_metre_rod_does(reference):
     # Radau 6 x 20 on the 1 m rod: 3.6e-9 rad and 4.1e-8 of the torque from the reference.
-    for mass, length in ((1.0, 1.0), (1e-3, 1e-2)):
+    # 100 um and 1 ug: an objective of 9e-22, which a floor meant for targets reached exactly (1e-14) left unscaled
+    for mass, length in ((1.0, 1.0), (1e-6, 1e-4), (1e-3, 1e-2)):
         sol = _swing_up(mass, length).solve(oc.Radau(20, degree=6))
         psi, tau = _errors(sol, reference, mass, length)
         assert psi < 1e-7 and tau < 1e-6, (mass, length, psi, tau)

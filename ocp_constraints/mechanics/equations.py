@@ -24,6 +24,7 @@ from .constraints import equipollent_moment
 from ..errors import ModelError, RedundantConstraintsError
 from .model import Model
 from .rotations import UnitQuaternion
+from .scaling import equilibrated
 
 
 def unit_lengths(bodies) -> ca.SX:
@@ -284,6 +285,7 @@ class SystemEquations:
         if not self.nc:
             return
         G = np.asarray(self.constraint_functions(q, np.zeros(self.nu), t, np.zeros(self.inputs.numel()))[0])
+        G = equilibrated(G.reshape(self.nc, self.nu))[0]      # the rank in no unit (scaling.equilibrated)
         scale = max(1.0, np.abs(G).max())
         if np.linalg.matrix_rank(G, tol=tol * scale) == self.nc:
             # Full row rank: by interlacing, every leading set of rows then is too (no row is redundant);

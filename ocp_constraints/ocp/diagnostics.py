@@ -25,6 +25,7 @@ import scipy.linalg
 
 from ..errors import ModelError, QuaternionSignWarning, SingularConfigurationError
 from ..mechanics.rotations import UnitQuaternion
+from ..mechanics.scaling import equilibrated
 from ..mechanics.state import check_regular, rate_rows
 
 POSITION_TOL = 1e-8    # m or rad: a boundary value that leaves |phi| above this violates the constraint
@@ -311,7 +312,7 @@ def _quaternion_rows(eqs):
 def _rank(A: np.ndarray) -> int:
     if not A.size:
         return 0
-    s = np.linalg.svd(A, compute_uv=False)
+    s = np.linalg.svd(equilibrated(A)[0], compute_uv=False)
     return int((s > 1e-9 * max(1.0, s[0])).sum())
 
 
@@ -321,9 +322,10 @@ def _undetermined(rows: np.ndarray, names: list[str]) -> list[str]:
     The null space of ``rows`` holds the free directions; QR with column pivoting of its
     transpose picks one independent name per direction, the one that moves most.
     """
-    _, s, vt = np.linalg.svd(rows)
+    scaled, cols = equilibrated(rows)
+    _, s, vt = np.linalg.svd(scaled)
     rank = int((s > 1e-9 * max(1.0, s[0] if s.size else 1.0)).sum())
-    Z = vt[rank:].T
+    Z = vt[rank:].T / cols[:, None]         # the free directions in the coordinates' own units
     if not Z.size:
         return []
     _, _, pivots = scipy.linalg.qr(Z.T, pivoting=True)

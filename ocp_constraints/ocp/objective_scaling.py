@@ -26,10 +26,10 @@ import casadi as ca
 import numpy as np
 
 OPTION = "ipopt.obj_scaling_factor"
-# An objective smaller than this at an optimum (after scaling) is brought up to 1 (small_objective_scale); one
-# smaller than TINY is taken as zero: nothing to resolve (a target reached exactly).
+# An objective smaller than this at an optimum (after scaling) is brought up to 1 (small_objective_scale), unless
+# it fell there from REACHED_ZERO times its start or less: a target reached exactly, nothing to resolve.
 SMALL = 1e-2
-TINY = 1e-14
+REACHED_ZERO = 1e-12
 # IPOPT's own ceiling on a scaled gradient (nlp_scaling_max_gradient's default): the scaled objective's gradient
 # at the start is kept below it.
 MAX_GRADIENT = 100.0
@@ -51,9 +51,13 @@ def objective_scale(block, x0: np.ndarray) -> float:
 
 
 
-def small_objective_scale(objective: float, scale: float = 1.0) -> float | None:
+def small_objective_scale(objective: float, scale: float = 1.0, start: float | None = None) -> float | None:
     """The ``obj_scaling_factor`` that brings an objective of ``objective`` (unscaled, at or near an optimum) seen
-    through ``scale`` up to 1 where it is smaller than :data:`SMALL`; None where it is not (or below :data:`TINY`).
+    through ``scale`` up to 1 where it is smaller than :data:`SMALL`; None where it is not, where it is 0, or, given
+    ``start`` (the objective at the solve's start, from the problem's guess), where that was 0 or the solve drove the
+    objective to :data:`REACHED_ZERO` of it or less: a target reached exactly, zero up to rounding, however small
+    its units (a terminal target that the guess already reached starts at 0). ``start`` None: the solve starts at an
+    optimum whose objective was found too small before (its warm solves), scaled whenever it is small.
 
     Why. IPOPT's tolerances are absolute: it stops where the dual infeasibility is below ``tol`` (1e-10), and that
     infeasibility is of the size of the objective's gradient, which scales with the objective. IPOPT scales a large
@@ -62,9 +66,11 @@ def small_objective_scale(objective: float, scale: float = 1.0) -> float | None:
     N^2 m^2 s), solved in 5 iterations to an objective 12x its optimum's, or the swing-up with its effort weighted
     1e-12 (the weight must not change the optimum: the torque came out 4.1 N m off; with 1e-8, 2.3e-3 N m off).
     The same problems with the objective brought to 1 match the well-scaled ones to 1e-9
-    (``tests/test_ocp_objective_units.py``). No problem of the suite or the examples comes near: their optima's
-    objectives are 0.057 and more, so they are solved as before."""
-    seen = abs(float(objective)) * scale
-    if not np.isfinite(seen) or seen >= SMALL or abs(float(objective)) < TINY:
+    (``tests/test_ocp_objective_units.py``; a rod of 100 um and 1 ug, objective 9e-22, too). No problem of the suite or
+    the examples comes near: their optima's objectives are 0.057 and more, so they are solved as before."""
+    size = abs(float(objective))
+    if not np.isfinite(size * scale) or size * scale >= SMALL or size == 0.0:
         return None
-    return 1.0 / abs(float(objective))
+    if start is not None and (start == 0.0 or size <= REACHED_ZERO * abs(float(start))):
+        return None
+    return 1.0 / size

@@ -239,8 +239,9 @@ class Transcription(ElementKinds):
         x0 = self.initial_guess() if warm_start is None else self.guess_from(warm_start)
         if scale_objective and OBJECTIVE_SCALING not in ipopt_options:
             opts[OBJECTIVE_SCALING] = objective_scale(self.block, x0)
-        if warm_start is not None and OBJECTIVE_SCALING not in ipopt_options:
-            # Started at an optimum: a small objective is brought to 1 now, not after a solve (objective_scaling).
+        # Started at an optimum whose objective had to be brought to 1: this one is too, now, not after the solve.
+        small_units = bool(getattr(warm_start, "small_objective", False))
+        if small_units and OBJECTIVE_SCALING not in ipopt_options:
             small = small_objective_scale(float(self.block.grad_f(x0, [])[0]), opts.get(OBJECTIVE_SCALING, 1.0))
             opts[OBJECTIVE_SCALING] = max(opts.get(OBJECTIVE_SCALING, 1.0), small or 0.0)
         started = time.perf_counter()
@@ -280,8 +281,11 @@ class Transcription(ElementKinds):
                 f"the last iterate is kept in .solution",
                 solution,
             )
-        small = None if OBJECTIVE_SCALING in ipopt_options else small_objective_scale(
-            solution.objective, opts.get(OBJECTIVE_SCALING, 1.0))
+        solution.small_objective = small_units
+        # From the problem's own guess only: a warm start's objective says nothing of whether the solve drove it to
+        # zero (a target reached exactly, whose warm solves start at 1e-21 and would be scaled by 1e21).
+        small = None if OBJECTIVE_SCALING in ipopt_options or warm_start is not None else small_objective_scale(
+            solution.objective, opts.get(OBJECTIVE_SCALING, 1.0), float(self.block.grad_f(x0, [])[0]))
         if small is not None:
             return self._solve_rescaled(solution, small, ipopt_options, warm_start, progress)
         return solution
@@ -294,6 +298,7 @@ class Transcription(ElementKinds):
         in the metre rod's units from ``first`` where the metre rod gives 8.913). The first solve's iterations and
         time are counted in the solution's (``stats["rescaled"]`` says so)."""
         again = self.solve({**ipopt_options, OBJECTIVE_SCALING: scale}, warm_start, progress=progress)
+        again.small_objective = True        # solves warm-started from it are scaled before they start
         again.stats["rescaled"] = {"objective_before": first.objective, "iterations_before": first.iterations,
                                    "objective_scale": scale}
         again.stats["iter_count"] = again.iterations + first.iterations
