@@ -15,12 +15,10 @@
    degrees more; no solve; none where a junction lies inside an interval), else the same mesh with every degree
    raised by two and the intervals holding a located junction halved (:func:`.mesh_companions.companion_of`),
    solved warm from 1 (on the first mesh: the *pilot*, every interval halved at :data:`MAX_DEGREE`, or cut finer where the
-   first solution's own Legendre coefficients predict that a halving will not do, :func:`pilot_of`,
-   :func:`.mesh_companions.pilot_pieces`);
+   first solution's own Legendre coefficients predict that a halving will not do, :func:`pilot_of`, ``pilot_pieces``);
    the estimate of each interval's error is :data:`.error_estimate.SAFETY` times their difference
    (:mod:`.error_estimate`). Where the next mesh asks for no more than the pilot has and the pilot is
-   not much larger (:func:`.mesh_companions.as_fine`, :data:`SNAP_POINTS`), the pilot is the next mesh and its
-   solution the next solution: one solve fewer;
+   not much larger (:func:`.mesh_companions.as_fine`, :data:`SNAP_POINTS`), the pilot is the next mesh, one solve fewer;
 3. *switches*: where an input bound or a path constraint jumps between its bounds inside an interval
    (read from the NLP's solution, :mod:`.switch_detection`), the interval is split *at* the located
    switch time, whatever its estimate, and the inputs' and multipliers' estimates leave out the
@@ -63,6 +61,7 @@ from __future__ import annotations
 
 import math
 import numbers
+import time
 
 import numpy as np
 
@@ -78,6 +77,7 @@ from .mesh_solves import (COMPLEMENTARITY, MUMPS_SCALING, check_solver_tolerance
 from .nonsmooth import MIN_INTERVAL, flag_nonsmooth, judged_smoothness, nonsmooth_splits
 from .schemes import Radau
 from .switch_detection import detect_switches, jump_windows, record_switches, split_points, touched
+from .time_breakpoints import with_breakpoints
 
 MIN_DEGREE, MAX_REFINEMENTS = 3, 10
 # The pilot replaces the next mesh (one solve fewer) only if it has at most this many times its points (its companion
@@ -103,8 +103,7 @@ AT_HAND = 3              # solutions kept as possible judges of later meshes
 DESCRIBED = ("mesh", "degrees", "estimate", "worst", "load_scale")     # what the record says of the solution returned
 # A warm solve that takes more IPOPT iterations than this many times the first mesh's cold solve (and at least
 # WARM_MIN_ITER) has been misled by its start: WARM_IPOPT's small barrier parameter keeps IPOPT near the start's
-# active set. It is stopped there and solved again from the same start with IPOPT's own options
-# (:func:`.mesh_solves.timed_solve`).
+# active set. It is stopped there and solved again from the same start with IPOPT's own (.mesh_solves.timed_solve).
 # The suite's quadrotor from Radau 5 N = 10: its pilot took 149 iterations and 49 s of CPU to a worse optimum
 # (J = 123.386) with WARM_IPOPT, 6 iterations to J = 123.253 without; a mesh 1e-16 apart took 4 with it.
 WARM_FACTOR, WARM_MIN_ITER = 3, 30
@@ -137,14 +136,14 @@ def check_max_refinements(value) -> int:
     return int(value)
 
 
-def start_scheme(method) -> Radau:
-    """The first mesh: ``method`` if it is Radau, else :data:`START` (10 intervals of degree 5)."""
-    if method is None:
-        return Radau(START["intervals"], degree=START["degree"])
+def start_scheme(method, problem=None) -> Radau:
+    """The first mesh: ``method`` if it is Radau, else :data:`START` (10 intervals of degree 5); given ``problem``, with a
+    mesh point at each time its expressions kink or jump (:func:`.time_breakpoints.with_breakpoints`)."""
+    method = Radau(START["intervals"], degree=START["degree"]) if method is None else method
     if not isinstance(method, Radau):
         raise ModelError(f"mesh refinement to a tolerance raises Radau degrees and splits Radau intervals; "
                          f"{getattr(method, 'label', repr(method))} has a fixed order: pass Radau(N, degree=d) as the starting mesh, or none")
-    return method
+    return method if problem is None else with_breakpoints(method, problem)
 
 
 def refine(scheme: Radau, ratio: np.ndarray, parents: dict | None = None,
@@ -238,14 +237,14 @@ def solve_to_tolerance(problem, tolerance, method=None, ipopt_options: dict | No
     solved (:func:`.mesh_progress.unestimated`). If the first mesh is not solved, or on Ctrl-C, :class:`OCPSolveError`
     is raised, its ``solution.mesh_refinement`` holding the history so far (:func:`.mesh_progress.interrupted`)."""
     tol = check_tolerance(tolerance)
-    scheme = start_scheme(method)
+    scheme = start_scheme(method, problem)
     options = dict(ipopt_options or {})
     check_solver_tolerances(options, tol)
     floor = solver_floor(options)       # no estimate below what each solve is asked of IPOPT (error_estimate)
     history: list[dict] = []
     record = {"tolerance": tol, "quantities_refined_on": list(GATED), "met": False, "history": history,
               "coordinates": problem.nlp_coordinates}
-    parents, warm, total, total_cpu, first, solved, sol = None, warm_start, 0.0, 0.0, None, None, None
+    parents, warm, first, solved, sol, clock = None, warm_start, None, None, None, (time.perf_counter(), time.process_time())
     # Solutions solved lately: a finer one may judge a later mesh (:func:`finer`). Meshes grow, so a finer one is
     # among the last few; the older ones (each with its NLP and IPOPT instance) are let go.
     at_hand: list = []
@@ -305,7 +304,6 @@ def solve_to_tolerance(problem, tolerance, method=None, ipopt_options: dict | No
             raise
         except KeyboardInterrupt:               # a build or a compile: keep the last complete solution
             raise interrupted(record, r, sol) from None
-        total, total_cpu = total + t_sol + t_comp, total_cpu + c_sol + c_comp
         windows = jump_windows(found + detect_switches(companion), scheme.mesh_fractions)
         est = estimate_error(sol, companion, windows=windows, switches=found, floor=floor)
         scale = scale or est.resolved       # warm solves scale the objective from the first resolved mesh on
@@ -321,7 +319,7 @@ def solve_to_tolerance(problem, tolerance, method=None, ipopt_options: dict | No
         score = max(est.totals[q] for q in GATED) if est.resolved else np.inf
         ratio = est.refinement_ratio(tol, GATED)      # where the error is made (ErrorEstimate.refinement_ratio)
         record.update(mesh=entry["mesh"], degrees=entry["degrees"], estimate=entry["estimate"], worst=entry["worst"],
-                      load_scale=entry["load_scale"], total_time_s=total, total_cpu_s=total_cpu, refinements=r)
+                      load_scale=entry["load_scale"], refinements=r)
         if not est.resolved:
             # Guard: the two solutions are not one optimum at two resolutions (module notes, step 2).
             if r == max_refinements:
@@ -396,5 +394,7 @@ def solve_to_tolerance(problem, tolerance, method=None, ipopt_options: dict | No
                        for a, b in zip(new.mesh_fractions[:-1], new.mesh_fractions[1:])}
         scheme, warm = new, companion
     sol = record_switches(name_overshoots(lowest_estimate(record, sol, score, best, tol), record, tol), record)
+    # The whole refinement's time, estimates and switch checks included (the history's times are its solves')
+    record.update(total_time_s=time.perf_counter() - clock[0], total_cpu_s=time.process_time() - clock[1])
     sol.mesh_refinement = record
     return sol

@@ -317,7 +317,7 @@ class OptimalControlProblem:
                                  "passing it as warm_start with tolerance=...")
             self.structure_key()
             if check:
-                check_problem(self, start_scheme(method))
+                check_problem(self, start_scheme(method, self))
             limit = {} if max_refinements is None else {"max_refinements": check_max_refinements(max_refinements)}
             return solve_to_tolerance(self, tolerance, method, ipopt_options, warm_start, progress=progress, **limit)
         if method is None:

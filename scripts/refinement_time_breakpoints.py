@@ -1,0 +1,99 @@
+"""A block on a rail tracking samples at 30 Hz (linear between them), solved to a tolerance with and without mesh
+points at the samples (ocp/time_breakpoints.py), against Pontryagin's two-point problem solved by SciPy's solve_bvp.
+
+    python scripts/refinement_time_breakpoints.py [--tolerances 1e-5 1e-6 1e-7] [--cap 120]
+
+Each solve in its own process, its CPU capped at ``--cap`` s; "without" replaces the first mesh's breakpoints by the
+plain first mesh (the code before). Printed: met, final points, CPU of ``solve``, the states' estimate and the true
+error of x and v at the solution's points, or the cap.
+"""
+from __future__ import annotations
+
+import argparse
+import json
+import resource
+import subprocess
+import sys
+import time
+
+import casadi as ca
+import numpy as np
+
+T, M, W = 1.0, 1.0, 1e4
+SAMPLES = np.linspace(0.0, T, 31)
+VALUES = 0.1 * np.sin(2 * np.pi * SAMPLES)
+
+
+def problem():
+    import ocp_constraints as oc
+
+    model = oc.Model("block", gravity=(0.0, -9.81, 0.0))
+    block = model.add_body("block", M, np.diag([0.01, 0.01, 0.01]), rotation="321")
+    E1, E2, E3 = ca.DM([1, 0, 0]), ca.DM([0, 1, 0]), ca.DM([0, 0, 1])
+    model.add_constraint("rail.v2", ca.dot(E2, block.com.v), joint="rail", position=block.com.position[1])
+    model.add_constraint("rail.v3", ca.dot(E3, block.com.v), joint="rail", position=block.com.position[2])
+    for k, E in enumerate((E1, E2, E3)):
+        model.add_constraint(f"rail.w{k + 1}", ca.dot(E, block.omega), joint="rail")
+    model.add_force("push", block.com, ca.vertcat(model.add_input("u"), 0, 0))
+    ocp = oc.OptimalControlProblem(model, t_final=T)
+    ocp.initial({"block.x": 0.0, "block.vbar_x": 0.0, "block.psi": 0.0, "block.theta": 0.0, "block.phi": 0.0})
+    ocp.track("block.x", lambda t: ca.pw_lin(t, ca.DM(SAMPLES), ca.DM(VALUES)), weight=W)
+    ocp.minimize_effort(["u"])
+    return ocp
+
+
+def pontryagin():
+    from scipy.integrate import solve_bvp
+
+    def rhs(t, y):
+        x, v, p1, p2 = y
+        return np.vstack([v, -p2 / (2 * M * M), -2 * W * (x - np.interp(t, SAMPLES, VALUES)), -p1])
+
+    mesh = np.linspace(0.0, T, 201)
+    return solve_bvp(rhs, lambda a, b: np.array([a[0], a[1], b[2], b[3]]), mesh, np.zeros((4, mesh.size)), tol=1e-8,
+                     max_nodes=100000).sol
+
+
+def one(tolerance: float, without: bool) -> dict:
+    import ocp_constraints.ocp.mesh_refinement as mr
+
+    if without:
+        mr.with_breakpoints = lambda scheme, problem: scheme
+    ref = pontryagin()
+    cpu = time.process_time()
+    sol = problem().solve(tolerance=tolerance)
+    cpu = time.process_time() - cpu
+    r, t = sol.mesh_refinement, np.asarray(sol.t)
+    true = max(np.abs(np.asarray(sol.sample(n)) - ref(t)[k]).max() for k, n in enumerate(("block.x", "block.vbar_x")))
+    return {"met": r["met"], "points": r["history"][-1]["points"], "cpu_s": cpu, "estimate": r["estimate"]["states"],
+            "true_x_v": true}
+
+
+def main(argv=None) -> int:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--tolerances", type=float, nargs="+", default=[1e-5, 1e-6, 1e-7])
+    ap.add_argument("--cap", type=int, default=120)
+    ap.add_argument("--one", type=float, help=argparse.SUPPRESS)
+    ap.add_argument("--without", action="store_true", help=argparse.SUPPRESS)
+    args = ap.parse_args(argv)
+    if args.one is not None:
+        print("ROW " + json.dumps(one(args.one, args.without)))
+        return 0
+    for tol in args.tolerances:
+        for without in (False, True):
+            cmd = [sys.executable, __file__, "--one", repr(tol)] + (["--without"] if without else [])
+            p = subprocess.run(cmd, capture_output=True, text=True,
+                               preexec_fn=lambda: resource.setrlimit(resource.RLIMIT_CPU, (args.cap, args.cap)))
+            rows = [ln[4:] for ln in p.stdout.splitlines() if ln.startswith("ROW ")]
+            label = f"{tol:g} {'without' if without else 'with   '} breakpoints:"
+            if not rows:
+                print(f"{label} no result within {args.cap} s of CPU (exit {p.returncode})", flush=True)
+                continue
+            r = json.loads(rows[0])
+            print(f"{label} met {r['met']}, {r['points']} points, {r['cpu_s']:.1f} s CPU, states' estimate "
+                  f"{r['estimate']:.1e}, true error of x and v {r['true_x_v']:.1e}", flush=True)
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())
