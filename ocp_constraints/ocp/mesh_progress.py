@@ -100,8 +100,8 @@ def _plateau_message(history: list[dict], tol: float, quantities) -> str | None:
             f"{cur['points']} points) and none lowered the estimate ({_largest(history[base], quantities):.1e} -> "
             f"{_largest(cur, quantities):.1e}); the solution and its companion do not converge together here (largest "
             f"differences: {_where(cur, quantities)}), so more points are unlikely to reach {tol:.0e}. {RETURNED}: accept "
-            f"a larger tolerance, or look for a path constraint's junction or a kink inside an interval (the message's "
-            f"rough or non-smooth intervals)")
+            f"a larger tolerance, or look for a path constraint's junction or a kink inside an interval (this message "
+            f"lists the rough or non-smooth intervals where any were found)" + _zero_objective(cur))
 
 
 def stall_message(history: list[dict], tol: float, quantities=("states", "multipliers")) -> str | None:
