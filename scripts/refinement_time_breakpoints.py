@@ -1,5 +1,6 @@
 """A block on a rail tracking samples at 30 Hz (linear between them), solved to a tolerance with and without mesh
-points at the samples (ocp/time_breakpoints.py), against Pontryagin's two-point problem solved by SciPy's solve_bvp.
+points at the samples (ocp/time_breakpoints.py), against Pontryagin's two-point problem solved by SciPy's solve_bvp
+(the problem and its reference: ocp_constraints/bench/sampled_tracking.py).
 
     python scripts/refinement_time_breakpoints.py [--tolerances 1e-5 1e-6 1e-7] [--cap 120]
 
@@ -16,52 +17,18 @@ import subprocess
 import sys
 import time
 
-import casadi as ca
 import numpy as np
-
-T, M, W = 1.0, 1.0, 1e4
-SAMPLES = np.linspace(0.0, T, 31)
-VALUES = 0.1 * np.sin(2 * np.pi * SAMPLES)
-
-
-def problem():
-    import ocp_constraints as oc
-
-    model = oc.Model("block", gravity=(0.0, -9.81, 0.0))
-    block = model.add_body("block", M, np.diag([0.01, 0.01, 0.01]), rotation="321")
-    E1, E2, E3 = ca.DM([1, 0, 0]), ca.DM([0, 1, 0]), ca.DM([0, 0, 1])
-    model.add_constraint("rail.v2", ca.dot(E2, block.com.v), joint="rail", position=block.com.position[1])
-    model.add_constraint("rail.v3", ca.dot(E3, block.com.v), joint="rail", position=block.com.position[2])
-    for k, E in enumerate((E1, E2, E3)):
-        model.add_constraint(f"rail.w{k + 1}", ca.dot(E, block.omega), joint="rail")
-    model.add_force("push", block.com, ca.vertcat(model.add_input("u"), 0, 0))
-    ocp = oc.OptimalControlProblem(model, t_final=T)
-    ocp.initial({"block.x": 0.0, "block.vbar_x": 0.0, "block.psi": 0.0, "block.theta": 0.0, "block.phi": 0.0})
-    ocp.track("block.x", lambda t: ca.pw_lin(t, ca.DM(SAMPLES), ca.DM(VALUES)), weight=W)
-    ocp.minimize_effort(["u"])
-    return ocp
-
-
-def pontryagin():
-    from scipy.integrate import solve_bvp
-
-    def rhs(t, y):
-        x, v, p1, p2 = y
-        return np.vstack([v, -p2 / (2 * M * M), -2 * W * (x - np.interp(t, SAMPLES, VALUES)), -p1])
-
-    mesh = np.linspace(0.0, T, 201)
-    return solve_bvp(rhs, lambda a, b: np.array([a[0], a[1], b[2], b[3]]), mesh, np.zeros((4, mesh.size)), tol=1e-8,
-                     max_nodes=100000).sol
-
 
 def one(tolerance: float, without: bool) -> dict:
     import ocp_constraints.ocp.mesh_refinement as mr
 
+    from ocp_constraints.bench.sampled_tracking import pontryagin_solution, sampled_tracking_block
+
     if without:
         mr.with_breakpoints = lambda scheme, problem: scheme
-    ref = pontryagin()
+    ref = pontryagin_solution()
     cpu = time.process_time()
-    sol = problem().solve(tolerance=tolerance)
+    sol = sampled_tracking_block().solve(tolerance=tolerance)
     cpu = time.process_time() - cpu
     r, t = sol.mesh_refinement, np.asarray(sol.t)
     true = max(np.abs(np.asarray(sol.sample(n)) - ref(t)[k]).max() for k, n in enumerate(("block.x", "block.vbar_x")))
