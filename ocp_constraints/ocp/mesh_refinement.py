@@ -237,8 +237,8 @@ def solve_to_tolerance(problem, tolerance, method=None, ipopt_options: dict | No
     solved (:func:`.mesh_progress.unestimated`). If the first mesh is not solved, or on Ctrl-C, :class:`OCPSolveError`
     is raised, its ``solution.mesh_refinement`` holding the history so far (:func:`.mesh_progress.interrupted`)."""
     tol = check_tolerance(tolerance)
-    scheme = start_scheme(method, problem)
-    options = dict(ipopt_options or {})
+    scheme, options = start_scheme(method, problem), dict(ipopt_options or {})
+    options.update(without_mumps_scaling(options) if scheme != start_scheme(method) else {})   # see time_breakpoints
     check_solver_tolerances(options, tol)
     floor = solver_floor(options)       # no estimate below what each solve is asked of IPOPT (error_estimate)
     history: list[dict] = []
