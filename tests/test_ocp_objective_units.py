@@ -57,12 +57,13 @@ def test_a_rod_of_one_centimetre_and_one_gram_meets_the_reference_as_the_metre_r
     assert "rescaled" in sol.stats      # the small rod's objective (9e-11 N^2 m^2 s) was brought to one
 
 
-def test_hermite_simpson_on_the_small_rod_finds_the_metre_rods_optimum():
+def test_hermite_simpson_on_the_small_rod_meets_the_reference_as_the_metre_rod_does(reference):
     # Solved again from its own start, not from the unscaled solve's end: from there it stayed in another basin
-    # (13.67 in the metre rod's units for 8.913, the swing 2.7 rad apart).
-    metre, small = (_swing_up(m, L).solve(oc.HermiteSimpson(60)) for m, L in ((1.0, 1.0), (1e-3, 1e-2)))
-    assert np.abs(np.asarray(small.sample("rod.psi")) - np.asarray(metre.sample("rod.psi"))).max() < 1e-8
-    assert small.objective / (1e-3 * 1e-2) ** 2 / math.sqrt(1e-2) == pytest.approx(metre.objective, rel=1e-8)
+    # (13.67 in the metre rod's units for 8.913, the swing 2.7 rad apart). Hermite-Simpson N = 60 on the metre rod:
+    # 2.9e-6 rad and 1.3e-3 of the torque from the reference.
+    for mass, length in ((1.0, 1.0), (1e-3, 1e-2)):
+        psi, tau = _errors(_swing_up(mass, length).solve(oc.HermiteSimpson(60)), reference, mass, length)
+        assert psi < 1e-5 and tau < 1e-2, (mass, length, psi, tau)
 
 
 def test_the_objectives_weight_does_not_change_the_optimum(reference):

@@ -285,9 +285,8 @@ class SystemEquations:
         if not self.nc:
             return
         G = np.asarray(self.constraint_functions(q, np.zeros(self.nu), t, np.zeros(self.inputs.numel()))[0])
-        G = equilibrated(G.reshape(self.nc, self.nu))[0]      # the rank in no unit (scaling.equilibrated)
-        scale = max(1.0, np.abs(G).max())
-        if np.linalg.matrix_rank(G, tol=tol * scale) == self.nc:
+        G = equilibrated(G.reshape(self.nc, self.nu))[0]      # the rank in no unit, largest entry 1 (scaling.equilibrated)
+        if np.linalg.matrix_rank(G, tol=tol) == self.nc:
             # Full row rank: by interlacing, every leading set of rows then is too (no row is redundant);
             # one SVD instead of one per constraint.
             return
@@ -295,7 +294,7 @@ class SystemEquations:
         problems, drop, alternatives = [], [], []
         for k in range(self.nc):
             rows = G[kept + [k]]
-            if np.linalg.matrix_rank(rows, tol=tol * scale) == len(kept) + 1:
+            if np.linalg.matrix_rank(rows, tol=tol) == len(kept) + 1:
                 kept.append(k)
                 continue
             coef, *_ = np.linalg.lstsq(G[kept].T, G[k], rcond=None) if kept else (np.zeros(0),)

@@ -51,10 +51,11 @@ def objective_scale(block, x0: np.ndarray) -> float:
 
 
 
-def small_objective_scale(objective: float, scale: float = 1.0, start: float | None = None) -> float | None:
+def small_objective_scale(objective: float, scale: float = 1.0, start=None) -> float | None:
     """The ``obj_scaling_factor`` that brings an objective of ``objective`` (unscaled, at or near an optimum) seen
     through ``scale`` up to 1 where it is smaller than :data:`SMALL`; None where it is not, where it is 0, or, given
-    ``start`` (the objective at the solve's start, from the problem's guess), where that was 0 or the solve drove the
+    ``start`` (a function giving the objective at the solve's start, from the problem's guess; called only where
+    the objective is small), where that was 0 or the solve drove the
     objective to :data:`REACHED_ZERO` of it or less: a target reached exactly, zero up to rounding, however small
     its units (a terminal target that the guess already reached starts at 0). ``start`` None: the solve starts at an
     optimum whose objective was found too small before (its warm solves), scaled whenever it is small.
@@ -71,6 +72,8 @@ def small_objective_scale(objective: float, scale: float = 1.0, start: float | N
     size = abs(float(objective))
     if not np.isfinite(size * scale) or size * scale >= SMALL or size == 0.0:
         return None
-    if start is not None and (start == 0.0 or size <= REACHED_ZERO * abs(float(start))):
-        return None
+    if start is not None:
+        begun = abs(float(start()))
+        if begun == 0.0 or size <= REACHED_ZERO * begun:
+            return None
     return 1.0 / size

@@ -58,6 +58,7 @@ def reference_expression(reference, t: ca.SX, name: str) -> ca.SX:
         raise ModelError(f"{advice}; calling it raised {type(exc).__name__}: {exc}") from exc
     if value.numel() != 1:
         raise ModelError(f"{advice}; it returned {value.size1()} x {value.size2()} values")
-    if not ca.depends_on(value, t) and not np.isfinite(float(ca.DM(ca.evalf(value)))):
-        raise ModelError(f"{advice}; it returned {float(ca.DM(ca.evalf(value)))}")
+    constant = None if ca.depends_on(value, t) else float(ca.DM(ca.evalf(value)))
+    if constant is not None and not np.isfinite(constant):
+        raise ModelError(f"{advice}; it returned {constant}")
     return value

@@ -86,15 +86,22 @@ def _affine(op: int, x: list) -> tuple[float, float] | None:
 def problem_breakpoints(problem) -> np.ndarray:
     """The breakpoints of a fixed-horizon problem's expressions of time inside its horizon (s): its objective's
     integrands, path constraints, applied forces and constraints' explicit time terms. None for a free final time
-    (a time in seconds is then no fixed fraction of the horizon)."""
+    (a time in seconds is then no fixed fraction of the horizon). Kept on the problem for its structure
+    (:meth:`~.problem.OptimalControlProblem.structure_key`): a solve to a tolerance asks twice, for its checks and its
+    first mesh, and an edited objective or path constraint is read again."""
     if problem.t_final_bounds is not None:
         return np.zeros(0)
+    key, kept = problem.structure_key(), problem.__dict__.get("_time_breakpoints")
+    if kept is not None and kept[0] == key:
+        return kept[1]
     e = problem.eqs
     expressions = ([term.expression for term in problem.integral_terms]
                    + [c.expression for c in problem.path_constraints] + [e.forces, e.e, e.phi])
     times = breakpoint_times(expressions, e.t)
     T = float(problem.t_final)
-    return times[(times > 1e-9 * T) & (times < (1 - 1e-9) * T)]
+    times = times[(times > 1e-9 * T) & (times < (1 - 1e-9) * T)]
+    problem.__dict__["_time_breakpoints"] = (key, times)
+    return times
 
 
 def with_breakpoints(scheme: Radau, problem) -> Radau:

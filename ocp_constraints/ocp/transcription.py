@@ -285,7 +285,7 @@ class Transcription(ElementKinds):
         # From the problem's own guess only: a warm start's objective says nothing of whether the solve drove it to
         # zero (a target reached exactly, whose warm solves start at 1e-21 and would be scaled by 1e21).
         small = None if OBJECTIVE_SCALING in ipopt_options or warm_start is not None else small_objective_scale(
-            solution.objective, opts.get(OBJECTIVE_SCALING, 1.0), float(self.block.grad_f(x0, [])[0]))
+            solution.objective, opts.get(OBJECTIVE_SCALING, 1.0), lambda: self.block.grad_f(x0, [])[0])
         if small is not None:
             return self._solve_rescaled(solution, small, ipopt_options, warm_start, progress)
         return solution
