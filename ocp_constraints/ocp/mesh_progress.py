@@ -21,6 +21,8 @@ and then meet the tolerance.
 """
 from __future__ import annotations
 
+import time
+
 from ..errors import OCPSolveError
 from .nonsmooth import flag_nonsmooth, unflagged
 
@@ -29,6 +31,10 @@ STALL_GROWTH = 1.5      # a refinement that multiplied the points by at least th
 # estimate is twice a difference (error_estimate.SAFETY) and true errors lie at 0.4-1 of it, so two estimates within
 # this factor do not rank the solutions, and the last is on the finer mesh (lowest_estimate).
 RANKED = 2.0
+# A refinement stopped by a mesh IPOPT did not solve while its only estimate, the first mesh's, was over this many times
+# the tolerance (or none was made) has not resolved the motion: it starts again from that mesh, solved from the
+# problem's guess (restarted). Not later: a mesh refined several times is large, and a cold solve of it costly.
+UNRESOLVED = 100.0
 # What a stopped refinement returns (lowest_estimate), said where it stops.
 RETURNED = (f"Returned: the last solution, or an earlier one whose estimate was more than {RANKED:g}x lower (then named "
             f"at the end of this message)")
@@ -170,7 +176,7 @@ def gave_up(record: dict, refinement: int, exc: OCPSolveError, previous) -> str:
     # another optimum (a swing-up over 20 s from 10 intervals: estimate 14, the next mesh not solved in 280
     # iterations; from 40 intervals met at 1e-4): a finer start is the advice that works.
     advice = (f"start from a finer mesh, e.g. solve(oc.Radau({4 * scheme.intervals}, degree=5), tolerance=...) "
-              f"(--intervals, --degree): this one does not resolve the motion" if worst > 100 * tol else
+              f"(--intervals, --degree): this one does not resolve the motion" if worst > UNRESOLVED * tol else
               "accept a larger tolerance")
     return (f"stopped at refinement {refinement}: {said}, also with IPOPT's own options. Returned: the solution of "
             f"refinement {refinement - 1} ({scheme.intervals} intervals, {scheme.point_count} points) with its estimate "
@@ -196,6 +202,46 @@ def unestimated(record: dict, entry: dict, exc: OCPSolveError, first) -> str:
             f"does not solve from the first solution often means the first mesh is too coarse for the motion (its optimum "
             f"is not the finer mesh's): start from a finer mesh (solve(oc.Radau(40, degree=3), tolerance=...); "
             f"--intervals, --degree), or pass more IPOPT iterations ('ipopt.max_iter')")
+
+
+def unresolved(record: dict | None, tol: float) -> bool:
+    """Whether a refinement stopped by a mesh not solved is far from resolving the motion: no estimate yet (``record``
+    None), or the first mesh's alone and over :data:`UNRESOLVED` times ``tol`` (then :func:`restarted`)."""
+    return record is None or (record["refinements"] == 0 and
+                              max(record["estimate"]["states"], record["estimate"]["multipliers"]) > UNRESOLVED * tol)
+
+
+def restarted(first, finer, clock: tuple, solve_again):
+    """A refinement stopped by a mesh ``finer`` IPOPT did not solve warm while its motion was not resolved
+    (:func:`unresolved`; ``first`` returned, by :func:`unestimated` or :func:`gave_up`), started again from that mesh,
+    solved from the problem's guess (``solve_again()``): a mesh too coarse for the motion has an optimum of its own,
+    which misleads the finer mesh's warm solve (a
+    seventh newcomer's URDF arm: Radau 5 x 10 reaches J = 28.87 with link 2 spinning at 37 rad/s, and its pilot,
+    Radau 7 x 20, warm from it, is not solved in 280 iterations; from the problem's guess it solves in 20 to
+    J = 9.074, the reference's optimum). ``clock``: (wall, CPU) at the refinement's start, both attempts counted.
+    Where the restart's first mesh is not solved either, ``first`` is returned with its message saying so."""
+    earlier = first.mesh_refinement
+    scheme = first.transcription.scheme
+    try:
+        sol = solve_again()
+    except OCPSolveError as exc:
+        if exc.solution is not None and exc.solution.status.startswith("interrupted"):
+            raise
+        said = str(exc).split("; the last iterate")[0]
+        earlier["message"] += (f". Started again from the finer mesh ({finer.intervals} intervals, {finer.point_count} "
+                               f"points) from the problem's guess: not solved either ({said})")
+        sol = first
+    else:
+        record = sol.mesh_refinement
+        record.pop("finer_start", None)
+        record["restarted"] = {"solution": {"intervals": scheme.intervals, "points": scheme.point_count,
+                                              "objective": float(first.objective)},
+                               "history": earlier["history"], "message": earlier["message"]}
+        record["message"] += (f" (started again from {finer.intervals} intervals, {finer.point_count} points: the first "
+                              f"solution ({scheme.intervals} intervals, objective {float(first.objective):.6g}) did not resolve the motion "
+                              f"and the finer mesh did not solve from it; 'restarted' has that attempt)")
+    sol.mesh_refinement.update(total_time_s=time.perf_counter() - clock[0], total_cpu_s=time.process_time() - clock[1])
+    return sol
 
 
 def lowest_estimate(record: dict, last, last_score: float, best: tuple, tol: float):

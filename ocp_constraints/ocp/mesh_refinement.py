@@ -60,7 +60,6 @@ companion it was judged against, the switches located).
 from __future__ import annotations
 
 import math
-import numbers
 import time
 
 import numpy as np
@@ -71,9 +70,10 @@ from .error_estimate import UNRESOLVED_OBJECTIVE, UNRESOLVED_STATE, estimate_err
 from .legendre_decay import DECAY_LIMIT, legendre_decay
 from .mesh_companions import (MAX_DEGREE, _degrees, _ends, as_fine, companion_of, finer, finer_at_hand,
                               pilot_of, pilot_pieces, reused_degree, split_pieces, uniform_step)
-from .mesh_progress import gave_up, inputs_aside, interrupted, lowest_estimate, stall_message, unestimated
-from .mesh_solves import (COMPLEMENTARITY, MUMPS_SCALING, check_solver_tolerances, complementarity_tolerance, solver_floor,
-                          tightened, without_mumps_scaling, iterations as _iterations, timed_solve as _timed_solve)
+from .mesh_progress import (gave_up, inputs_aside, interrupted, lowest_estimate, restarted, stall_message, unestimated,
+                            unresolved)
+from .mesh_solves import (COMPLEMENTARITY, MUMPS_SCALING, check_max_refinements, check_solver_tolerances, check_tolerance,
+                          complementarity_tolerance, solver_floor, tightened, without_mumps_scaling, iterations as _iterations, timed_solve as _timed_solve)
 from .nonsmooth import MIN_INTERVAL, flag_nonsmooth, judged_smoothness, nonsmooth_splits
 from .schemes import Radau
 from .switch_detection import detect_switches, jump_windows, record_switches, split_points, touched
@@ -111,29 +111,6 @@ WARM_FACTOR, WARM_MIN_ITER = 3, 30
 # suite's four-bar at 1e-3 once spent 2,255 iterations and 771 s of CPU on one companion (the robustness notes,
 # session 11). Past the cap the refinement stops and returns the last solution whose error was estimated.
 FALLBACK_FACTOR, FALLBACK_MIN_ITER = 10, 100
-
-
-def check_tolerance(tolerance) -> float:
-    """The tolerance as a float, or a :class:`ModelError` saying what is wrong with it."""
-    if isinstance(tolerance, bool) or not isinstance(tolerance, numbers.Real):
-        raise ModelError(f"tolerance must be a positive number (the error you accept: states in SI units, "
-                         f"multipliers relative to the largest load), got {tolerance!r} "
-                         f"({type(tolerance).__name__})")
-    tol = float(tolerance)
-    if not (math.isfinite(tol) and tol > 0.0):
-        raise ModelError(f"tolerance must be a positive finite number, e.g. 1e-6, got {tolerance!r}")
-    if tol < 1e-10:
-        raise ModelError(f"tolerance {tol:g} is below IPOPT's own tolerance (1e-10) used for every solve; "
-                         f"ask for 1e-10 or more")
-    return tol
-
-
-def check_max_refinements(value) -> int:
-    """``max_refinements`` as an int >= 0, or a :class:`ModelError` saying what is wrong with it."""
-    if isinstance(value, bool) or not isinstance(value, numbers.Integral) or value < 0:
-        raise ModelError(f"max_refinements must be a whole number >= 0 (refinements after the first solve), "
-                         f"got {value!r}")
-    return int(value)
 
 
 def start_scheme(method, problem=None) -> Radau:
@@ -234,8 +211,23 @@ def solve_to_tolerance(problem, tolerance, method=None, ipopt_options: dict | No
     (module notes). A mesh IPOPT does not solve (warm, then with IPOPT's own options capped at :data:`FALLBACK_FACTOR`
     times the first mesh's cold iterations) stops the refinement, "met" False, with the last solution whose error was
     estimated (:func:`.mesh_progress.gave_up`), or the first mesh's, estimate None, where its companion is the one not
-    solved (:func:`.mesh_progress.unestimated`). If the first mesh is not solved, or on Ctrl-C, :class:`OCPSolveError`
+    solved (:func:`.mesh_progress.unestimated`), unless the pilot's mesh then solves from the start: the refinement
+    starts again from it (:func:`.mesh_progress.restarted`). If the first mesh is not solved, or on Ctrl-C, :class:`OCPSolveError`
     is raised, its ``solution.mesh_refinement`` holding the history so far (:func:`.mesh_progress.interrupted`)."""
+    clock = (time.perf_counter(), time.process_time())
+    sol = _refine(problem, tolerance, method, ipopt_options, warm_start, progress, max_refinements)
+    finer = sol.mesh_refinement.pop("finer_start", None)
+    if finer is None:
+        return sol
+    # The restart's first solve capped as any retry is, by the first attempt's cold iterations (FALLBACK_FACTOR)
+    cap = max(FALLBACK_MIN_ITER, FALLBACK_FACTOR * sol.mesh_refinement["history"][0].get("iterations", 0))
+    return restarted(sol, finer, clock, lambda: _refine(problem, tolerance, finer, ipopt_options, warm_start, progress,
+                                                        max_refinements, cap))
+
+
+def _refine(problem, tolerance, method, ipopt_options, warm_start, progress, max_refinements, first_cap=None):
+    """The refinement loop of :func:`solve_to_tolerance` from one first mesh (``first_cap``: IPOPT's iterations on
+    its first solve, where the options set none)."""
     tol = check_tolerance(tolerance)
     scheme, options = start_scheme(method, problem), dict(ipopt_options or {})
     options.update(without_mumps_scaling(options) if scheme != start_scheme(method) else {})   # see time_breakpoints
@@ -245,6 +237,7 @@ def solve_to_tolerance(problem, tolerance, method=None, ipopt_options: dict | No
     record = {"tolerance": tol, "quantities_refined_on": list(GATED), "met": False, "history": history,
               "coordinates": problem.nlp_coordinates}
     parents, warm, first, solved, sol, clock = None, warm_start, None, None, None, (time.perf_counter(), time.process_time())
+    pending = None      # the mesh being solved: a first mesh to start again from where it fails (mesh_progress.restarted)
     # Solutions solved lately: a finer one may judge a later mesh (:func:`finer`). Meshes grow, so a finer one is
     # among the last few; the older ones (each with its NLP and IPOPT instance) are let go.
     at_hand: list = []
@@ -260,7 +253,9 @@ def solve_to_tolerance(problem, tolerance, method=None, ipopt_options: dict | No
                 sol, t_sol, c_sol = solved, 0.0, 0.0
                 entry["solved_as_companion"] = True
             else:
-                sol, t_sol, c_sol = (_timed_solve(problem, scheme, options, None, progress, first) if warm is None else
+                pending = scheme if r > 0 else None
+                cold = {"ipopt.max_iter": first_cap, **options} if first_cap else options
+                sol, t_sol, c_sol = (_timed_solve(problem, scheme, cold, None, progress, first) if warm is None else
                                      _timed_solve(problem, scheme, warm_options, warm, progress, first, fallback, scale))
             if first is None:
                 first = sol.transcription
@@ -286,9 +281,8 @@ def solve_to_tolerance(problem, tolerance, method=None, ipopt_options: dict | No
                 entry["judged_against"] = {"intervals": judge.transcription.scheme.intervals,
                                            "points": judge.transcription.scheme.point_count}
             else:
-                companion, t_comp, c_comp = _timed_solve(problem, pilot_of(scheme, pilot_pieces(sol, tol)) if r == 0
-                                                         else companion_of(scheme, kinked),
-                                                         warm_options, sol, progress, first, fallback, scale)
+                pending = pilot_of(scheme, pilot_pieces(sol, tol)) if r == 0 else companion_of(scheme, kinked)
+                companion, t_comp, c_comp = _timed_solve(problem, pending, warm_options, sol, progress, first, fallback, scale)
                 at_hand.append(companion)
             del at_hand[:-AT_HAND]
             entry["solves"] = (solved is None) + (judge is None)
@@ -297,6 +291,8 @@ def solve_to_tolerance(problem, tolerance, method=None, ipopt_options: dict | No
             if kept is not None and exc.solution is not None and not exc.solution.status.startswith("interrupted"):
                 entry["failed"], sol = str(exc), kept
                 record["message"] = gave_up(record, r, exc, kept) if previous is not None else unestimated(record, entry, exc, kept)
+                if pending is not None and unresolved(record if previous is not None else None, tol):
+                    record["finer_start"] = pending
                 break
             record["message"] = f"refinement {r}: {exc}"
             if exc.solution is not None:

@@ -19,6 +19,8 @@ record, reported in the refinement's history):
 """
 from __future__ import annotations
 
+import math
+import numbers
 import time
 
 import numpy as np
@@ -37,6 +39,29 @@ TIGHTENED_AT = 1e-4
 MUMPS_SCALING = "ipopt.mumps_scaling"
 # IPOPT's tolerances on each solve's optimality and feasibility: how close to its NLP's optimum a solve stops.
 SOLVER_TOLERANCES = ("ipopt.tol", "ipopt.constr_viol_tol")
+
+
+def check_tolerance(tolerance) -> float:
+    """The tolerance as a float, or a :class:`ModelError` saying what is wrong with it."""
+    if isinstance(tolerance, bool) or not isinstance(tolerance, numbers.Real):
+        raise ModelError(f"tolerance must be a positive number (the error you accept: states in SI units, "
+                         f"multipliers relative to the largest load), got {tolerance!r} "
+                         f"({type(tolerance).__name__})")
+    tol = float(tolerance)
+    if not (math.isfinite(tol) and tol > 0.0):
+        raise ModelError(f"tolerance must be a positive finite number, e.g. 1e-6, got {tolerance!r}")
+    if tol < 1e-10:
+        raise ModelError(f"tolerance {tol:g} is below IPOPT's own tolerance (1e-10) used for every solve; "
+                         f"ask for 1e-10 or more")
+    return tol
+
+
+def check_max_refinements(value) -> int:
+    """``max_refinements`` as an int >= 0, or a :class:`ModelError` saying what is wrong with it."""
+    if isinstance(value, bool) or not isinstance(value, numbers.Integral) or value < 0:
+        raise ModelError(f"max_refinements must be a whole number >= 0 (refinements after the first solve), "
+                         f"got {value!r}")
+    return int(value)
 
 
 def complementarity_tolerance(tol: float, options: dict, first) -> float | None:
