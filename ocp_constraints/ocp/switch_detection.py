@@ -208,14 +208,15 @@ def _detect(solution) -> list[Switch]:
     out = []
     bounds = getattr(tr, "user_problem", tr.problem).bounds
     quantities = bounded_quantities(solution)
-    # Only where an input is bounded (the integrand's curvature at every point costs ~0.4 ms a solution).
-    smooth = penalized_inputs(solution) if any(q[0] in solution.trajectory.eqs.model.inputs for q in quantities) else set()
+    smooth = None
     for name, v, lo, hi, states_only, continuous in quantities:
         source = ("state" if states_only else "input") if name in bounds else "path"
         s, eps = activity(v, lo, hi)
         idx = np.arange(0 if states_only else 1, len(v))
         if len(np.unique(s[idx])) < 2:
             continue
+        # Only where a quantity switches (the integrand's curvature at every point costs ~1 ms a solution).
+        smooth = penalized_inputs(solution) if smooth is None else smooth
         # A continuous quantity (a state, a path constraint of states) approaches its bound tangentially (_approach).
         for at, kind, i, j in locate(frac[idx], v[idx], s[idx], lo, hi, eps, jumps=not continuous and name not in smooth,
                                      intervals=interval_of[idx], through_active=True,
