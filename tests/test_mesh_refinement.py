@@ -423,12 +423,12 @@ def test_a_mesh_ipopt_cannot_solve_stops_the_refinement_with_the_last_estimated_
 
     solves, real = [], mr._timed_solve
 
-    def timed_solve(problem, scheme, ipopt_options, warm_start, progress, first=None, fallback=None, scale=False):
+    def timed_solve(problem, scheme, ipopt_options, warm_start, progress, first=None, fallback=None, scale=False, arcs=()):
         solves.append(scheme)
         if len(solves) >= 3:
             ipopt_options = {**ipopt_options, "ipopt.max_iter": 1}
             fallback = {**(fallback or {}), "ipopt.max_iter": 1}
-        return real(problem, scheme, ipopt_options, warm_start, progress, first, fallback)
+        return real(problem, scheme, ipopt_options, warm_start, progress, first, fallback, scale, arcs)
 
     monkeypatch.setattr(mr, "_timed_solve", timed_solve)
     sol = mr.solve_to_tolerance(build_task("pendulum", "swing_up")[1], 1e-9, Radau(4, degree=3))

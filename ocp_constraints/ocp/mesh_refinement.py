@@ -67,6 +67,7 @@ import numpy as np
 from ..errors import ModelError, OCPSolveError
 from .bound_overshoot import name_overshoots
 from .error_estimate import UNRESOLVED_OBJECTIVE, UNRESOLVED_STATE, estimate_error
+from .junction_times import align_junctions
 from .legendre_decay import DECAY_LIMIT, legendre_decay
 from .mesh_companions import (MAX_DEGREE, _degrees, _ends, as_fine, companion_of, finer, finer_at_hand,
                               pilot_of, pilot_pieces, reused_degree, split_pieces, uniform_step)
@@ -244,19 +245,21 @@ def _refine(problem, tolerance, method, ipopt_options, warm_start, progress, max
     score, best = np.inf, (np.inf, None, None, None, ())   # the last estimated solution's largest gated estimate; the lowest
     warm_options = {**WARM_IPOPT, **options}    # capped once the first mesh's cold solve has said how hard it is
     fallback, previous, scale = options, None, False     # previous: the last solution whose error was estimated
+    arcs = None         # input arcs imposed (junction_times): None not tried yet, () none
     for r in range(max_refinements + 1):
         entry = {"refinement": r, "intervals": scheme.intervals, "points": scheme.point_count,
                  "mesh": [float(m) for m in scheme.mesh_fractions], "degrees": [int(d) for d in _degrees(scheme)]}
         history.append(entry)
         try:
-            if solved is not None:      # this mesh is the last companion's: its solution is at hand
+            if solved is not None:      # this mesh is the last companion's (or the arcs' last step): its solution is at hand
                 sol, t_sol, c_sol = solved, 0.0, 0.0
-                entry["solved_as_companion"] = True
+                entry["arcs_aligned" if "input_arcs" in history[-2] else "solved_as_companion"] = True
             else:
                 pending = scheme if r > 0 else None
                 cold = {"ipopt.max_iter": first_cap, **options} if first_cap else options
                 sol, t_sol, c_sol = (_timed_solve(problem, scheme, cold, None, progress, first) if warm is None else
-                                     _timed_solve(problem, scheme, warm_options, warm, progress, first, fallback, scale))
+                                     _timed_solve(problem, scheme, warm_options, warm, progress, first, fallback, scale,
+                                                  arcs or ()))
             if first is None:
                 first = sol.transcription
                 later = dict(options)    # the warm solves: IPOPT's complementarity held to the tolerance (mesh_solves)
@@ -282,7 +285,8 @@ def _refine(problem, tolerance, method, ipopt_options, warm_start, progress, max
                                            "points": judge.transcription.scheme.point_count}
             else:
                 pending = pilot_of(scheme, pilot_pieces(sol, tol)) if r == 0 else companion_of(scheme, kinked)
-                companion, t_comp, c_comp = _timed_solve(problem, pending, warm_options, sol, progress, first, fallback, scale)
+                companion, t_comp, c_comp = _timed_solve(problem, pending, warm_options, sol, progress, first, fallback, scale,
+                                                         arcs or ())
                 at_hand.append(companion)
             del at_hand[:-AT_HAND]
             entry["solves"] = (solved is None) + (judge is None)
@@ -358,6 +362,13 @@ def _refine(problem, tolerance, method, ipopt_options, warm_start, progress, max
                                       f"{spots} of the horizon")
             flag_nonsmooth(sol, tol, record, smoothness, windows)
             break
+        if arcs is None and est.resolved:       # an input's arcs on its bound imposed, once (junction_times)
+            arcs = ()
+            if (aligned := align_junctions(problem, scheme, sol, tol, warm_options, progress, first, fallback, scale)):
+                arcs, scheme, solved = aligned
+                warm, parents, at_hand[:] = solved, None, [solved]
+                entry["input_arcs"] = record["input_arcs"] = [dict(vars(a)) for a in arcs]
+                continue
         if stalled := stall_message(history, tol, GATED) or est.held_by_arcs(tol, GATED):    # more points no longer pay
             record["message"] = stalled + est.arc_note(tol)
             flag_nonsmooth(sol, tol, record, smoothness, windows)

@@ -167,14 +167,15 @@ def build_mesh(problem, scheme: Radau, first):
 
 
 def timed_solve(problem, scheme: Radau, ipopt_options: dict, warm_start, progress, first=None, fallback=None,
-                scale_objective: bool = False):
+                scale_objective: bool = False, arcs=()):
     """Build and solve one mesh; ``first``: an earlier transcription of the same problem. ``fallback``: IPOPT
     options to solve it again with where the warm solve (``warm_start`` given) fails (from the same start) or
     ends at the acceptable level (from the problem's own guess; module notes). ``scale_objective``: the warm
-    solves (and the retry from the same start) scale the objective (:mod:`.objective_scaling`). Returns the
-    solution, wall and CPU seconds."""
+    solves (and the retry from the same start) scale the objective (:mod:`.objective_scaling`). ``arcs``: input arcs
+    imposed on the bounds (:mod:`.input_arcs`). Returns the solution, wall and CPU seconds."""
     started, cpu = time.perf_counter(), time.process_time()
     tr = build_mesh(problem, scheme, first)
+    tr.arcs = tuple(arcs)
     warm = warm_start is not None
     scaled = warm and scale_objective
     try:

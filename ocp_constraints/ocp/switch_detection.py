@@ -36,7 +36,7 @@ change). Any other switch lies *inside* its interval.
 """
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import casadi as ca
 import numpy as np
@@ -193,8 +193,28 @@ def detect_switches(solution) -> list[Switch]:
     key = (tuple(pr.bounds.items()), tuple((id(c), c.lower, c.upper) for c in pr.path_constraints))
     kept = solution.__dict__.get("_switches")
     if kept is None or kept[0] != key:
-        kept = solution.__dict__["_switches"] = (key, _detect(solution))
+        kept = solution.__dict__["_switches"] = (key, _on_arcs(_detect(solution), solution))
     return list(kept[1])
+
+
+def _on_arcs(found: list[Switch], solution) -> list[Switch]:
+    """``found``, the junctions of an input whose arcs are imposed (:mod:`.input_arcs`) put at their mesh points, where
+    they are by construction: located from the points, they fall a little inside the free interval next to them, and
+    read as kinks inside it they floored the estimate at the kink's size (the torque-limited rod at 1e-5: 1.3e-2 of
+    the load, halving with each refinement, against a true error of 1e-7)."""
+    arcs = getattr(solution.transcription, "arcs", ())
+    T, mesh = float(solution.t_final), solution.transcription.scheme.mesh_fractions
+    ends: dict = {}
+    for a in arcs:
+        ends.setdefault(a.input, []).extend(x / T for x in (a.start, a.end) if 0.0 < x < T)
+    out = []
+    for w in found:
+        if w.kind == "junction" and ends.get(w.quantity):
+            at = min(ends[w.quantity], key=lambda x: abs(x - w.fraction))
+            k = int(np.clip(np.searchsorted(mesh, at * (1 + 1e-12), side="right") - 1, 0, len(mesh) - 2))
+            w = replace(w, fraction=at, interval=k, inside=False, effect=0.0)
+        out.append(w)
+    return out
 
 
 def _detect(solution) -> list[Switch]:

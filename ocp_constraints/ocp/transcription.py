@@ -36,6 +36,7 @@ from .compiled_elements import machine_code
 from .nlp_assembly import BlockNLP, derivative_cache
 from .bounds import variable_bounds
 from .guess import consistent_guess, from_solution
+from .input_arcs import pin_arcs
 from .interpolation import interpolation_matrix
 from .layout import Layout
 from .objective_scaling import OPTION as OBJECTIVE_SCALING, objective_scale, small_objective_scale
@@ -53,6 +54,9 @@ DEFAULT_IPOPT = {"ipopt.tol": 1e-10, "ipopt.constr_viol_tol": 1e-10, "ipopt.max_
 
 class Transcription(ElementKinds):
     """The NLP of one problem and one scheme, built once, solvable many times."""
+
+    # Input arcs imposed on the bounds (.input_arcs.pin_arcs; set by a refinement's junction alignment)
+    arcs: tuple = ()
 
     def __init__(self, problem, scheme: Scheme, like: Transcription | None = None):
         """``like``: a transcription of the same problem, unchanged since it was built (the meshes of one
@@ -258,6 +262,8 @@ class Transcription(ElementKinds):
             self._solver_options = opts
         setup = time.perf_counter() - started
         lbx, ubx = self._bounds(x0)
+        if self.arcs:
+            pin_arcs(self, self.arcs, lbx, ubx)
         lbg, ubg = self._boundary_values()
         self._monitor.reset(progress, lbg, ubg)
         started = time.perf_counter()
@@ -273,6 +279,7 @@ class Transcription(ElementKinds):
             self, np.asarray(res["x"]).ravel(), stats, float(res["f"]),
             {"transcription": self.build_time, "solver_setup": setup, "solve": solve_time}))
         solution.objective_scale = opts.get(OBJECTIVE_SCALING, 1.0)
+        solution.bound_multipliers = np.asarray(res["lam_x"], float).ravel()     # .junction_times checks arcs by them
         if not stats.get("success", False):
             raise OCPSolveError(
                 f"IPOPT did not solve '{self.problem.model.name}' with {self.scheme.label} "

@@ -1,0 +1,87 @@
+"""The junction times of input arcs, found as roots (issue 19; the arcs and why: :mod:`.input_arcs`).
+
+A refinement that has located an input's arc on its bound (a solution resolved, not yet within the tolerance) tries
+once to impose it: every inner junction becomes a mesh point, and its time is moved by secant steps, each a warm solve
+of the mesh with the arcs imposed, until the input's continuity mismatch there (:func:`.input_arcs.mismatch`) is below
+:data:`GOAL` times the tolerance. The first step moves by :data:`FIRST_STEP` of the junction's interval, in the
+direction the mismatch points to (a free side above the bound after an arc's end: the arc ends later). The arcs are
+kept only if they hold (:func:`holds`): the free side within the bounds where they were dropped, and each arc's bound
+multiplier pushing the input against its bound (IPOPT's ``lam_x``: >= 0 on an upper bound, <= 0 on a lower), not
+pulling it off. Otherwise, or where a step's solve fails or the steps run out, the refinement goes on without them.
+"""
+from __future__ import annotations
+
+from dataclasses import replace
+
+import numpy as np
+
+from ..errors import OCPSolveError
+from .input_arcs import find_arcs, inner_junctions, mismatch, pinned, with_junction_points
+from .mesh_solves import timed_solve
+
+STEPS = 8           # secant steps at most
+FIRST_STEP = 0.05   # the second trial time: this fraction of the junction's interval away from the located one
+GOAL = 0.01         # each junction's mismatch asked: this fraction of the tolerance (relative to the input's scale)
+PULL = 1e-3         # an arc's bound multiplier of the wrong sign beyond this fraction of its largest: the arc does not hold
+
+
+def holds(solution, arcs, scale: dict, tol: float) -> bool:
+    """Whether the imposed ``arcs`` are the optimum's (module notes)."""
+    tr = solution.transcription
+    bounds = getattr(tr, "user_problem", tr.problem).bounds
+    w, lam = np.asarray(solution.decision_vector, float), solution.bound_multipliers
+    fixed, freed = pinned(tr, arcs)
+    for (k, _, _), cols in zip(inner_junctions(arcs, float(solution.t_final)), freed):
+        lo, hi = bounds[arcs[k].input]
+        slack = GOAL * tol * scale[arcs[k].input]
+        if np.any(w[cols] < lo - slack) or np.any(w[cols] > hi + slack):
+            return False
+    for a, cols in zip(arcs, fixed):
+        upper = a.value == bounds[a.input][1]
+        pull = -lam[cols] if upper else lam[cols]
+        if cols.size and pull.max() > PULL * np.abs(lam[cols]).max():
+            return False
+    return True
+
+
+def align_junctions(problem, scheme, solution, tol: float, options: dict, progress, first, fallback, scale_objective):
+    """``(arcs, mesh, solution)``: the arcs of ``solution`` imposed, their junctions mesh points of ``scheme`` at the
+    roots of the mismatch; None where there is no inner junction or the arcs are not found to hold (module notes)."""
+    if first.layout.free_time:
+        return None         # a free final time moves every junction with it: not done
+    arcs, scale = find_arcs(solution)
+    T = float(solution.t_final)
+    junctions = inner_junctions(arcs, T)
+    if not junctions:
+        return None
+    mesh = scheme.mesh_fractions * T
+    times = np.array([at for _, _, at in junctions])
+    step = FIRST_STEP * np.array([np.diff(mesh)[min(np.searchsorted(mesh, at) - 1, len(mesh) - 2)] for at in times])
+    before, warm = None, solution
+    for _ in range(STEPS):
+        now = list(arcs)
+        for (k, side, _), at in zip(junctions, times):
+            now[k] = replace(now[k], **{side: float(at)})
+        trial = with_junction_points(scheme, list(times), T)
+        try:
+            sol, _, _ = timed_solve(problem, trial, options, warm, progress, first, fallback, scale_objective, arcs=now)
+        except OCPSolveError:
+            return None
+        g = mismatch(sol, now, scale)
+        if np.all(np.abs(g) <= GOAL * tol):
+            return (now, trial, sol) if holds(sol, now, scale, tol) else None
+        if before is None:
+            # An arc's end later, or its start earlier, where the free side is past its bound there.
+            bounds = getattr(first, "user_problem", first.problem).bounds
+            sign = np.array([1.0 if side == "end" else -1.0 for _, side, _ in junctions])
+            upper = np.array([1.0 if now[k].value == bounds[now[k].input][1] else -1.0 for k, _, _ in junctions])
+            new = times + step * sign * np.sign(g) * upper
+        else:
+            old_times, old_g = before
+            moved = g != old_g
+            new = np.where(moved, times - g * (times - old_times) / np.where(moved, g - old_g, 1.0), times)
+        before, warm = (times, g), sol
+        times = np.clip(new, 1e-6 * T, T * (1 - 1e-6))
+        if not np.all(np.isfinite(times)):
+            return None
+    return None
