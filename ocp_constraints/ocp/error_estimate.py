@@ -141,7 +141,7 @@ def values_at(solution, fractions: np.ndarray) -> dict[str, np.ndarray]:
     fractions = np.atleast_1d(np.asarray(fractions, dtype=float))
     # One interpolation matrix for every name (OCPSolution.polynomial's, built once: by name it cost ~25 us a name).
     E, columns = solution.transcription.interpolation_matrix(fractions), solution.sample_columns()
-    return {q: (np.array([columns[n] for n in labels]).reshape(len(labels), -1) @ E.T).reshape(len(labels), fractions.size)
+    return {q: (np.array([columns[n] for n in labels], float).reshape(len(labels), E.shape[1]) @ E.T).reshape(len(labels), fractions.size)
             for q, labels in names(solution).items()}
 
 

@@ -150,6 +150,6 @@ def from_solution(tr, solution) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     t = tr.fractions * solution.t_final
     names = pr.model.coordinate_names + pr.model.speed_names
     X = np.array([solution.polynomial(n, t) for n in names])
-    L = np.array([solution.polynomial(f"{c}.lambda", t) for c in tr.eqs.constraint_names]).reshape(tr.layout.nc, -1)
-    W = np.array([solution.polynomial(n, t) for n in pr.model.inputs]).reshape(tr.layout.n_in, -1)
+    L = np.array([solution.polynomial(f"{c}.lambda", t) for c in tr.eqs.constraint_names]).reshape(tr.layout.nc, len(t))
+    W = np.array([solution.polynomial(n, t) for n in pr.model.inputs]).reshape(tr.layout.n_in, len(t))
     return X, L, W

@@ -72,7 +72,7 @@ def legendre_decay(solution, companion=None) -> tuple[np.ndarray, np.ndarray]:
     # local time are the same): one matrix per degree, all their intervals at once.
     local_of = np.array([tr.local[k].label for k in range(tr.scheme.intervals)])
     for q in ("inputs", "multipliers"):
-        values = np.array([solution.sample(n) for n in labels[q]]).reshape(len(labels[q]), -1)
+        values = np.array([solution.sample(n) for n in labels[q]], float).reshape(len(labels[q]), len(solution.t))
         scale = float(np.abs(values[:, 1:]).max()) if values.shape[1] > 1 and values.size else 0.0
         if scale == 0.0:
             continue
@@ -117,7 +117,7 @@ def predicted_error(solution) -> tuple[np.ndarray, np.ndarray]:
     mesh = tr.scheme.mesh_fractions
     out, falls = np.zeros(tr.scheme.intervals), np.ones(tr.scheme.intervals, bool)
     for q in ("states", "multipliers"):
-        values = np.array([solution.sample(n) for n in labels[q]]).reshape(len(labels[q]), -1)
+        values = np.array([solution.sample(n) for n in labels[q]], float).reshape(len(labels[q]), len(solution.t))
         scale = 1.0 if q == "states" else (float(np.abs(values[:, 1:]).max()) if values.size else 0.0)
         if not values.size or scale == 0.0:
             continue

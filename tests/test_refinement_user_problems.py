@@ -1,5 +1,5 @@
-"""A refinement whose first mesh is too coarse for the motion starts again from a finer mesh (ocp/mesh_progress.py,
-``restarted``).
+"""User problems that solve(tolerance=...) mishandled: a first mesh too coarse for the motion (it starts again from a
+finer mesh: ocp/mesh_progress.py, ``restarted``), a body without constraints.
 
 The seventh newcomer's URDF arm (results/bench/refinement_newcomer7.md): a planar two-link arm loaded from a URDF,
 from hanging at rest to rest at (pi/4, pi/3) in 1 s, least effort, the shoulder's torque bounded by 4.5 N m (active
@@ -68,3 +68,32 @@ def test_a_first_mesh_too_coarse_for_the_motion_is_dropped_and_the_refinement_st
     assert sol.objective == pytest.approx(REFERENCE_OBJECTIVE, rel=1e-6)
     # both attempts are counted in the refinement's time
     assert record["total_cpu_s"] > sum(h["cpu_s"] + h.get("companion_cpu_s", 0.0) for h in record["history"])
+
+
+def test_a_free_body_without_constraints_is_refined_to_its_tolerance_against_the_closed_form():
+    """A tenth newcomer's free body (results/bench/refinement_newcomer10.md, flag 1): no joint, so no multiplier at
+    all; solve(tolerance=...) raised a raw ValueError (an empty array reshaped, in the pilot's Legendre prediction).
+    Here a body (quaternion) turned about the fixed E3 through THETA in T, rest to rest, by one torque about E3, least
+    int tau^2: the double integrator's optimum, psi = THETA (3 s^2 - 2 s^3), tau = J33 psi'' (s = t / T)."""
+    theta, t_final, j33 = 1.2, 2.0, 3.0
+    model = oc.Model("free_body", gravity=(0.0, 0.0, 0.0))
+    body = model.add_body("body", 1.0, np.diag([1.0, 2.0, j33]), rotation="quaternion")
+    model.add_torque("motor", body, np.array([0.0, 0.0, 1.0]) * model.add_input("motor"))
+    problem = oc.OptimalControlProblem(model, t_final=t_final)
+    rest = {f"body.omega_{a}": 0.0 for a in "xyz"} | {f"body.vbar_{a}": 0.0 for a in "xyz"}
+    problem.initial({"body.x": 0.0, "body.y": 0.0, "body.z": 0.0, "body.qw": 1.0, "body.qx": 0.0, "body.qy": 0.0,
+                     "body.qz": 0.0} | rest)
+    problem.final({"body.qw": np.cos(theta / 2), "body.qx": 0.0, "body.qy": 0.0, "body.qz": np.sin(theta / 2)} | rest)
+    problem.minimize_effort()
+    sol = problem.solve(tolerance=1e-6)
+    record = sol.mesh_refinement
+    assert record["met"], record["message"]
+    t = np.linspace(0.0, t_final, 2001)
+    s = t / t_final
+    psi = theta * (3 * s**2 - 2 * s**3)
+    exact = {"body.qw": np.cos(psi / 2), "body.qz": np.sin(psi / 2),
+             "body.omega_z": theta * (6 * s - 6 * s**2) / t_final}
+    true = max(float(np.abs(sol.interpolate(name, t) - value).max()) for name, value in exact.items())
+    assert 0.1 * record["estimate"]["states"] <= true <= record["estimate"]["states"]
+    torque = j33 * theta * (6 - 12 * s) / t_final**2
+    assert np.abs(sol.interpolate("motor", t) - torque).max() <= record["estimate"]["inputs"] * np.abs(torque).max()
