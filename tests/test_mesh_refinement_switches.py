@@ -178,9 +178,11 @@ def test_a_clean_switch_at_a_mesh_point_has_no_effect_and_the_first_mesh_meets()
 def test_a_refinement_that_cannot_refine_further_still_records_its_jump_windows(monkeypatch):
     """Stopped because no interval can be split or raised (every piece would be shorter than MIN_INTERVAL):
     the record names the jump's window all the same (it was left out on this stop only; H1's holdouts)."""
+    import ocp_constraints.ocp.hp_rule as hp
     import ocp_constraints.ocp.mesh_refinement as mr
 
-    monkeypatch.setattr(mr, "MIN_INTERVAL", 0.6)           # no split; degrees up to MAX_DEGREE, then stuck
+    for module in (mr, hp):                                 # no split; degrees up to MAX_DEGREE, then stuck
+        monkeypatch.setattr(module, "MIN_INTERVAL", 0.6)
     sol = solve_to_tolerance(_block(), 1e-9, Radau(5, degree=mr.MAX_DEGREE), max_refinements=4)
     record = sol.mesh_refinement
     assert not record["met"] and "cannot be refined further" in record["message"]

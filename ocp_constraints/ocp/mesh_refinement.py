@@ -29,7 +29,7 @@
    refine every interval whose share of the estimate exceeds it (the states' and multipliers' share: the part
    of their difference from the companion made there, not an error made elsewhere and carried along,
    :meth:`.error_estimate.ErrorEstimate.refinement_ratio`), an hp rule after Patterson, Hager and Rao (2014)
-   (:func:`refine`): a smooth interval gets the degree that a fall of the error of about 4x per
+   (:func:`.hp_rule.refine`): a smooth interval gets the degree that a fall of the error of about 4x per
    degree predicts, up to :data:`MAX_DEGREE`, else it is split at that degree into as many pieces as
    the rest of the error needs; an interval refined last time whose estimate fell less than tenfold
    *and* whose inputs or multipliers are not smooth (:func:`.legendre_decay.legendre_decay`) is
@@ -45,7 +45,9 @@
    (no bound located a switch there), that interval is halved and the refinement goes on
    (:func:`.nonsmooth.nonsmooth_splits`); on the last refinement such intervals withdraw "met" and are named
    (:func:`.nonsmooth.flag_nonsmooth`): there the companion is no upper bound;
-6. stop ("met" not claimed) when more points no longer pay: a second stall, one with no progress, or a run of small
+6. once, where an input with an effort term rides its bound and the estimate is resolved but not met: its arcs
+   imposed and their junctions made mesh points at the roots of its continuity mismatch (:mod:`.junction_times`);
+7. stop ("met" not claimed) when more points no longer pay: a second stall, one with no progress, or a run of small
    steps that never lowered the estimate (:mod:`.mesh_progress`); a refinement that ends "not met" returns the
    solution with the lowest estimate it saw (:func:`.mesh_progress.lowest_estimate`), not always its last.
 
@@ -59,7 +61,6 @@ companion it was judged against, the switches located).
 """
 from __future__ import annotations
 
-import math
 import time
 
 import numpy as np
@@ -67,25 +68,28 @@ import numpy as np
 from ..errors import ModelError, OCPSolveError
 from .bound_overshoot import name_overshoots
 from .error_estimate import UNRESOLVED_OBJECTIVE, UNRESOLVED_STATE, estimate_error
+from .hp_rule import MIN_DEGREE, ROUGH_MIN, refine  # noqa: F401 (MIN_DEGREE, ROUGH_MIN: read here by tests and docs)
 from .junction_times import align_junctions
 from .legendre_decay import DECAY_LIMIT, legendre_decay
-from .mesh_companions import (MAX_DEGREE, _degrees, _ends, as_fine, companion_of, finer, finer_at_hand,
-                              pilot_of, pilot_pieces, reused_degree, split_pieces, uniform_step)
+from .mesh_companions import (MAX_DEGREE, _degrees, _ends, as_fine, companion_of, finer, finer_at_hand, pilot_of,
+                              pilot_pieces, uniform_step)
 from .mesh_progress import (gave_up, inputs_aside, interrupted, lowest_estimate, restarted, stall_message, unestimated,
                             unresolved)
-from .mesh_solves import (COMPLEMENTARITY, MUMPS_SCALING, check_max_refinements, check_solver_tolerances, check_tolerance,
-                          complementarity_tolerance, solver_floor, tightened, without_mumps_scaling, iterations as _iterations, timed_solve as _timed_solve)
+from .mesh_solves import check_max_refinements  # noqa: F401 (problem.solve reads it here)
+from .mesh_solves import (COMPLEMENTARITY, MUMPS_SCALING, check_solver_tolerances, check_tolerance, complementarity_tolerance,
+                          solver_floor, tightened, without_mumps_scaling, iterations as _iterations,
+                          timed_solve as _timed_solve)
 from .nonsmooth import MIN_INTERVAL, flag_nonsmooth, judged_smoothness, nonsmooth_splits
 from .schemes import Radau
 from .switch_detection import detect_switches, jump_windows, record_switches, split_points, touched
 from .time_breakpoints import with_breakpoints
 
-MIN_DEGREE, MAX_REFINEMENTS = 3, 10
+MAX_REFINEMENTS = 10
 # The pilot replaces the next mesh (one solve fewer) only if it has at most this many times its points (its companion
 # and the solution returned are then that much larger; where solve time grows like the points, the saved solve pays for
 # ~1.8x): 1.5 keeps a margin, and a non-smooth solution (short intervals at a switch) is not traded for a finer mesh.
 SNAP_POINTS = 1.5
-ROUGH_MIN, GATED = 1e-3, ("states", "multipliers")    # ROUGH_MIN: fraction of the horizon below which a rough interval is not halved
+GATED = ("states", "multipliers")
 # The first mesh. Degree 5 rather than 3 (scripts/refinement_robustness.py, results/bench/refinement_start.md): at
 # 1e-3 the 21 problems met both ways end on as few points or fewer on 18 (7,053 points against 8,861) for 29% less
 # CPU; at 1e-5, on 11 of 12, for 24% more CPU (the ball-and-socket reach and the quadrotor); on degree 3 the first
@@ -124,75 +128,6 @@ def start_scheme(method, problem=None) -> Radau:
     return method if problem is None else with_breakpoints(method, problem)
 
 
-def refine(scheme: Radau, ratio: np.ndarray, parents: dict | None = None,
-           nonsmooth: np.ndarray | None = None, switches: dict | None = None,
-           built: set | frozenset = frozenset()) -> tuple[Radau, dict]:
-    """The next mesh, and each new interval's parent ``(ends) -> ratio``.
-
-    ``ratio[k]`` is interval ``k``'s estimate over the tolerance (the largest of the gated
-    quantities); ``parents`` maps an interval's ends to the ratio of the interval it was made from
-    one refinement back. An interval refined last time whose ratio fell less than tenfold, and
-    whose inputs or multipliers are not smooth (``nonsmooth[k]``, from
-    :func:`.legendre_decay.legendre_decay`; None: not checked) is *rough* (a switch or a kink inside:
-    neither a higher degree nor a split at a high degree helps much): it is split in two at :data:`MIN_DEGREE`. A smooth one gets the degree that
-    the error's fall of about 4x per degree predicts, ``d + ceil(log(ratio) / log 4)``, if that is at
-    most :data:`MAX_DEGREE`; else it is split at :data:`MAX_DEGREE` into the number of pieces that
-    the rest of the ratio needs (error ~ h^MAX_DEGREE), 2 to :data:`.mesh_companions.MAX_PIECES`.
-
-    ``switches[k]``: fractions of the horizon where a bound or path constraint switches inside interval
-    ``k`` (:func:`.switch_detection.split_points`). Such an interval is split *at* them, at :data:`MIN_DEGREE`,
-    whatever its ratio: each piece is then a smooth arc whose companion estimate holds, where halving
-    would narrow the switch down only by two per refinement (minimum-time swing-up at 1e-3: 10
-    halvings, the switch still inside an interval, true error 1.7x the estimate).
-
-    ``built``: degrees whose element kinds this refinement has built already (:func:`reused_degree`): a
-    raised degree is rounded up to the nearest of them.
-    """
-    mesh, degrees = scheme.mesh_fractions, _degrees(scheme)
-    new_mesh, new_degrees, born = [0.0], [], {}
-    for k, (a, b) in enumerate(zip(mesh[:-1], mesh[1:])):
-        d, r = int(degrees[k]), float(ratio[k])
-        if k in (switches or {}):
-            pieces = [*switches[k], b]
-            for lo, hi in zip([a, *pieces[:-1]], pieces):
-                born[_ends(lo, hi)] = max(r, 1.0)
-            new_mesh.extend(pieces)
-            # At MIN_DEGREE: beside a jump the NLP holds the bounds loosely and a higher degree only oscillates more
-            # (the minimum-time swing-up from the degree-5 first mesh, its pieces at degree 5: 1e-3 not met after
-            # 10 refinements, multipliers' estimate 1.6e-2; at degree 3, met on 75 points).
-            new_degrees.extend([min(d, MIN_DEGREE)] * len(pieces))
-            continue
-        if r <= 1.0:
-            new_mesh.append(b)
-            new_degrees.append(d)
-            continue
-        needed = d + max(1, math.ceil(math.log(r) / math.log(4.0)))
-        parent = (parents or {}).get(_ends(a, b))
-        # Not below ROUGH_MIN: a switch no bound locates is narrowed that far by halving; shorter, the
-        # NLP's inputs and multipliers next to a switch grow noisier, not smoother (see .switch_detection.touched).
-        rough = (parent is not None and r > parent / 10.0 and (nonsmooth is None or bool(nonsmooth[k]))
-                 and b - a > ROUGH_MIN)
-        if b - a <= MIN_INTERVAL:
-            pieces, degree = [b], min(d + 1, MAX_DEGREE)
-        elif rough:
-            pieces, degree = [(a + b) / 2, b], MIN_DEGREE
-        elif needed <= MAX_DEGREE:
-            pieces, degree = [b], reused_degree(needed, built)
-        else:
-            # At MAX_DEGREE the ratio left is r / 4^(MAX_DEGREE - d); n pieces divide it by about
-            # n^MAX_DEGREE (the multipliers' order; the states' is one more): as many pieces as that
-            # predicts, so that a steep tolerance is met in one more refinement, not several halvings
-            # (swing-up at 1e-8: 3 refinements with halving, 2 with this).
-            n = split_pieces(r, d)
-            pieces, degree = [a + (b - a) * j / n for j in range(1, n)] + [b], MAX_DEGREE
-        for lo, hi in zip([a, *pieces[:-1]], pieces):
-            born[_ends(lo, hi)] = r
-        new_mesh.extend(pieces)
-        new_degrees.extend([degree] * len(pieces))
-    new_mesh[-1] = 1.0
-    return Radau(mesh=tuple(float(m) for m in new_mesh), degrees=tuple(new_degrees)), born
-
-
 def solve_to_tolerance(problem, tolerance, method=None, ipopt_options: dict | None = None, warm_start=None, *,
                        progress: bool | None = None, max_refinements: int = MAX_REFINEMENTS):
     """Solve ``problem`` with hp mesh refinement until the estimated error is at most ``tolerance``.
@@ -209,19 +144,16 @@ def solve_to_tolerance(problem, tolerance, method=None, ipopt_options: dict | No
         last solution (or an earlier one of a much lower estimate) is returned, ``mesh_refinement["met"]`` False.
 
     Returns the :class:`~ocp_constraints.ocp.solution.OCPSolution` on the last mesh, ``mesh_refinement`` filled in
-    (module notes). A mesh IPOPT does not solve (warm, then with IPOPT's own options capped at :data:`FALLBACK_FACTOR`
-    times the first mesh's cold iterations) stops the refinement, "met" False, with the last solution whose error was
-    estimated (:func:`.mesh_progress.gave_up`), or the first mesh's, estimate None, where its companion is the one not
-    solved (:func:`.mesh_progress.unestimated`), unless the pilot's mesh then solves from the start: the refinement
-    starts again from it (:func:`.mesh_progress.restarted`). If the first mesh is not solved, or on Ctrl-C, :class:`OCPSolveError`
-    is raised, its ``solution.mesh_refinement`` holding the history so far (:func:`.mesh_progress.interrupted`)."""
+    (module notes). A mesh IPOPT does not solve (warm, then with its own options, capped) stops the refinement, "met"
+    False, with the last estimated solution (:func:`.mesh_progress.gave_up`; the first mesh's, estimate None, where its
+    companion failed: :func:`.mesh_progress.unestimated`), or starts it again once from that mesh solved cold
+    (:func:`.mesh_progress.restarted`). If the first mesh is not solved, or on Ctrl-C, :class:`OCPSolveError` is
+    raised, its ``solution.mesh_refinement`` holding the history so far (:func:`.mesh_progress.interrupted`)."""
     clock = (time.perf_counter(), time.process_time())
     sol = _refine(problem, tolerance, method, ipopt_options, warm_start, progress, max_refinements)
-    finer = sol.mesh_refinement.pop("finer_start", None)
-    if finer is None:
+    if (finer := sol.mesh_refinement.pop("finer_start", None)) is None:
         return sol
-    # The restart's first solve capped as any retry is, by the first attempt's cold iterations (FALLBACK_FACTOR)
-    cap = max(FALLBACK_MIN_ITER, FALLBACK_FACTOR * sol.mesh_refinement["history"][0].get("iterations", 0))
+    cap = max(FALLBACK_MIN_ITER, FALLBACK_FACTOR * sol.mesh_refinement["history"][0].get("iterations", 0))   # as a retry
     return restarted(sol, finer, clock, lambda: _refine(problem, tolerance, finer, ipopt_options, warm_start, progress,
                                                         max_refinements, cap))
 
