@@ -129,7 +129,7 @@ def start_scheme(method, problem=None) -> Radau:
 
 
 def solve_to_tolerance(problem, tolerance, method=None, ipopt_options: dict | None = None, warm_start=None, *,
-                       progress: bool | None = None, max_refinements: int = MAX_REFINEMENTS):
+                       progress: bool | None = None, max_refinements: int = MAX_REFINEMENTS, started: tuple | None = None):
     """Solve ``problem`` with hp mesh refinement until the estimated error is at most ``tolerance``.
 
     Parameters
@@ -139,6 +139,8 @@ def solve_to_tolerance(problem, tolerance, method=None, ipopt_options: dict | No
         (constraint forces and moments, eq. 26) relative to the largest load.
     method
         The starting mesh (a :class:`Radau`); default 10 intervals of degree 5.
+    started
+        (wall, CPU) seconds the total times count from (``problem.solve``: before its checks), else now.
     max_refinements
         Refinements after the first solve; if the estimate is still above the tolerance then, the
         last solution (or an earlier one of a much lower estimate) is returned, ``mesh_refinement["met"]`` False.
@@ -149,8 +151,8 @@ def solve_to_tolerance(problem, tolerance, method=None, ipopt_options: dict | No
     companion failed: :func:`.mesh_progress.unestimated`), or starts it again once from that mesh solved cold
     (:func:`.mesh_progress.restarted`). If the first mesh is not solved, or on Ctrl-C, :class:`OCPSolveError` is
     raised, its ``solution.mesh_refinement`` holding the history so far (:func:`.mesh_progress.interrupted`)."""
-    clock = (time.perf_counter(), time.process_time())
-    sol = _refine(problem, tolerance, method, ipopt_options, warm_start, progress, max_refinements)
+    clock = started or (time.perf_counter(), time.process_time())
+    sol = _refine(problem, tolerance, method, ipopt_options, warm_start, progress, max_refinements, clock=clock)
     if (finer := sol.mesh_refinement.pop("finer_start", None)) is None:
         return sol
     cap = max(FALLBACK_MIN_ITER, FALLBACK_FACTOR * sol.mesh_refinement["history"][0].get("iterations", 0))   # as a retry
@@ -158,9 +160,9 @@ def solve_to_tolerance(problem, tolerance, method=None, ipopt_options: dict | No
                                                         max_refinements, cap))
 
 
-def _refine(problem, tolerance, method, ipopt_options, warm_start, progress, max_refinements, first_cap=None):
+def _refine(problem, tolerance, method, ipopt_options, warm_start, progress, max_refinements, first_cap=None, clock=None):
     """The refinement loop of :func:`solve_to_tolerance` from one first mesh (``first_cap``: IPOPT's iterations on
-    its first solve, where the options set none)."""
+    its first solve, where the options set none; ``clock``: (wall, CPU) the total times count from)."""
     tol = check_tolerance(tolerance)
     scheme, options = start_scheme(method, problem), dict(ipopt_options or {})
     options.update(without_mumps_scaling(options) if scheme != start_scheme(method) else {})   # see time_breakpoints
@@ -169,7 +171,8 @@ def _refine(problem, tolerance, method, ipopt_options, warm_start, progress, max
     history: list[dict] = []
     record = {"tolerance": tol, "quantities_refined_on": list(GATED), "met": False, "history": history,
               "coordinates": problem.nlp_coordinates}
-    parents, warm, first, solved, sol, clock = None, warm_start, None, None, None, (time.perf_counter(), time.process_time())
+    parents, warm, first, solved, sol = None, warm_start, None, None, None
+    clock = clock or (time.perf_counter(), time.process_time())
     pending = None      # the mesh being solved: a first mesh to start again from where it fails (mesh_progress.restarted)
     # Solutions solved lately: a finer one may judge a later mesh (:func:`finer`). Meshes grow, so a finer one is
     # among the last few; the older ones (each with its NLP and IPOPT instance) are let go.

@@ -13,6 +13,8 @@ al. (2016) that keeps the discretized system consistent.
 """
 from __future__ import annotations
 
+import time
+
 from dataclasses import dataclass, field
 from typing import Callable
 
@@ -306,6 +308,8 @@ class OptimalControlProblem:
             from .diagnostics import check_problem
             from .mesh_refinement import check_max_refinements, check_tolerance, solve_to_tolerance, start_scheme
 
+            started = (time.perf_counter(), time.process_time())    # the totals count the checks too
+
             tolerance = check_tolerance(tolerance)
             if not (self.integral_terms or self.terminal_terms or self.time_weight):
                 raise ModelError(f"solve(tolerance=...) needs an objective: '{self.model.name}' has none, so every motion "
@@ -319,7 +323,8 @@ class OptimalControlProblem:
             if check:
                 check_problem(self, start_scheme(method, self))
             limit = {} if max_refinements is None else {"max_refinements": check_max_refinements(max_refinements)}
-            return solve_to_tolerance(self, tolerance, method, ipopt_options, warm_start, progress=progress, **limit)
+            return solve_to_tolerance(self, tolerance, method, ipopt_options, warm_start, progress=progress,
+                                      started=started, **limit)
         if method is None:
             raise ModelError("solve needs a method (e.g. Radau(50, degree=3)) or a tolerance (e.g. tolerance=1e-6)")
         if starts != 1:
