@@ -40,7 +40,7 @@ GATED = ("states", "multipliers")
 DEFAULT_RUNS = ([f"{p}:{t}" for p in ("lq", "lq2", "lq3", "lq4", "pend") for t in ("1e-3", "1e-4", "1e-6", "1e-8")]
                 + [f"pend2:{t}" for t in ("1e-3", "3e-4", "1e-4", "1e-5", "1e-6", "1e-8")]
                 + [f"mayer:{t}" for t in ("1e-3", "1e-4", "1e-6", "1e-8")])
-PLAIN_MESSAGE = re.compile(r"estimated error at most \S+ after \d+ refinements \(\d+ intervals, \d+ points\)")
+PLAIN_MESSAGE = re.compile(r"estimated error at most \S+ after \d+ refinements? \(\d+ intervals, \d+ points\)")
 
 
 # ----------------------------------------------------------------------------------------------- one run

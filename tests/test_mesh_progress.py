@@ -164,3 +164,14 @@ def test_a_stall_at_a_vanishing_objective_says_the_solution_is_not_unique():
     for entry in stalled:
         entry["objective"] = 0.5
     assert "not unique (add" not in stall_message(stalled, 1e-5)
+
+
+def test_a_refinement_out_of_refinements_advises_more_only_where_they_were_still_lowering_the_estimate():
+    """The tenth newcomer's least-time swing at 1e-6 (its multipliers' estimate 2.8e-5 -> 6.8e-4 over the last
+    refinements) was told to raise max_refinements; a converging history still is."""
+    from ocp_constraints.ocp.mesh_progress import more_refinements
+
+    rising = _history((51, 1e-3), (141, 2.8e-5), (300, 1e-4), (400, 6.8e-4))
+    assert "raised the estimate (2.8e-05 -> 6.8e-04)" in more_refinements(rising, ("states", "multipliers"))
+    falling = _history((51, 1e-3), (141, 1e-4), (300, 3e-5))
+    assert more_refinements(falling, ("states", "multipliers")).startswith("raise max_refinements")

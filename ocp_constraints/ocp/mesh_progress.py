@@ -273,6 +273,17 @@ def lowest_estimate(record: dict, last, last_score: float, best: tuple, tol: flo
     return sol
 
 
+def more_refinements(history: list[dict], quantities) -> str:
+    """The advice of a refinement out of refinements: more of them, unless the last refinements raised the estimate
+    (its largest gated value over 2x the lower of the two before; a tenth newcomer's least-time swing under a
+    hinge-force bound at 1e-6 went 2.8e-5 -> 6.8e-4 over its last refinements and was told to raise max_refinements)."""
+    scores = [_largest(h, quantities) for h in history if h.get("estimate")]
+    if len(scores) >= 3 and scores[-1] > 2.0 * min(scores[-3:-1]):
+        return (f"the last refinements raised the estimate ({min(scores[-3:-1]):.1e} -> {scores[-1]:.1e}), so more of "
+                f"them are unlikely to lower it: accept a larger tolerance")
+    return "raise max_refinements (solve(..., max_refinements=N), --max-refinements N) or accept a larger tolerance"
+
+
 def inputs_aside(totals: dict, tol: float) -> str:
     """What a "met" message adds where the inputs' estimate is above ``tol``: "met" is decided on the states and
     multipliers (:data:`.mesh_refinement.GATED`, issue 19); the inputs are reported, not refined on. A newcomer's pendulum over 3 s

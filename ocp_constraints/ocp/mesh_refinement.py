@@ -73,8 +73,8 @@ from .junction_times import align_junctions
 from .legendre_decay import DECAY_LIMIT, legendre_decay
 from .mesh_companions import (MAX_DEGREE, _degrees, _ends, as_fine, companion_of, finer, finer_at_hand, pilot_of,
                               pilot_pieces, uniform_step)
-from .mesh_progress import (gave_up, inputs_aside, interrupted, lowest_estimate, restarted, stall_message, unestimated,
-                            unresolved)
+from .mesh_progress import (gave_up, inputs_aside, interrupted, lowest_estimate, more_refinements, restarted, stall_message,
+                            unestimated, unresolved)
 from .mesh_solves import check_max_refinements  # noqa: F401 (problem.solve reads it here)
 from .mesh_solves import (COMPLEMENTARITY, MUMPS_SCALING, check_solver_tolerances, check_tolerance, complementarity_tolerance,
                           solver_floor, tightened, without_mumps_scaling, iterations as _iterations,
@@ -126,6 +126,10 @@ def start_scheme(method, problem=None) -> Radau:
         raise ModelError(f"mesh refinement to a tolerance raises Radau degrees and splits Radau intervals; "
                          f"{getattr(method, 'label', repr(method))} has a fixed order: pass Radau(N, degree=d) as the starting mesh, or none")
     return method if problem is None else with_breakpoints(method, problem)
+
+
+def _count(r: int) -> str:
+    return f"{r} refinement" + ("" if r == 1 else "s")
 
 
 def solve_to_tolerance(problem, tolerance, method=None, ipopt_options: dict | None = None, warm_start=None, *,
@@ -258,7 +262,7 @@ def _refine(problem, tolerance, method, ipopt_options, warm_start, progress, max
         if not est.resolved:
             # Guard: the two solutions are not one optimum at two resolutions (module notes, step 2).
             if r == max_refinements:
-                record["message"] = (f"not resolved after {r} refinements: the solution and its companion still "
+                record["message"] = (f"not resolved after {_count(r)}: the solution and its companion still "
                                      f"differ by {est.objective_change:.1e} in the objective and {est.state_change:.2f} "
                                      f"of a state's range (more than a mesh error can: {UNRESOLVED_OBJECTIVE:g}, "
                                      f"{UNRESOLVED_STATE:g}), so the estimate is not an error; raise max_refinements "
@@ -277,16 +281,15 @@ def _refine(problem, tolerance, method, ipopt_options, warm_start, progress, max
             nonsmooth_splits(sol, tol, smoothness, windows) if met and r < max_refinements else {})
         entry["switches"] = [f for k in sorted(switches) for f in switches[k]]
         if met and not switches:
-            record.update(met=True, message=f"estimated error at most {tol:g} after {r} refinements "
+            record.update(met=True, message=f"estimated error at most {tol:g} after {_count(r)} "
                                             f"({scheme.intervals} intervals, {scheme.point_count} points)"
                                             + inputs_aside(est.totals, tol))
             flag_nonsmooth(sol, tol, record, smoothness, windows)
             break
         if r == max_refinements:
-            record["message"] = (f"estimate still above {tol:g} after {r} refinements (states "
+            record["message"] = (f"estimate still above {tol:g} after {_count(r)} (states "
                                  f"{est.totals['states']:.1e}, multipliers {est.totals['multipliers']:.1e}); "
-                                 f"raise max_refinements (solve(..., max_refinements=N), --max-refinements N) "
-                                 f"or accept a larger tolerance" + est.arc_note(tol))
+                                 + more_refinements(history, GATED) + est.arc_note(tol))
             mesh = scheme.mesh_fractions
             record["rough_intervals"] = [[float(a), float(b)] for a, b, q in zip(mesh[:-1], mesh[1:], ratio)
                                          if q > 1.0 and (parents or {}).get(_ends(a, b), np.inf) < 10.0 * q]
