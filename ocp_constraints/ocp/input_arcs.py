@@ -114,15 +114,20 @@ def find_arcs(solution) -> tuple[list[Arc], dict[str, float]]:
     tr = solution.transcription
     pr = getattr(tr, "user_problem", tr.problem)
     t, _, T = _times(tr)
-    smooth = penalized_inputs(solution)
-    located = [w for w in detect_switches(solution) if w.kind == "junction" and w.source == "input"]
-    arcs, scale = [], {}
+    smooth, located, arcs, scale = None, None, [], {}
     for name, (lo, hi) in pr.bounds.items():
-        if name not in smooth:
+        if name not in pr.model.inputs:
             continue
         v = np.asarray(solution.sample(name), float).ravel()
         s, _ = activity(v, lo, hi)
         s[0] = 0                                    # t = 0: Radau's extrapolated input
+        if not s.any():
+            continue
+        if smooth is None:      # only where an input reaches a bound (the curvature at every point: ~1 ms)
+            smooth = penalized_inputs(solution)
+            located = [w for w in detect_switches(solution) if w.kind == "junction" and w.source == "input"]
+        if name not in smooth:
+            continue
         runs = np.flatnonzero(np.diff(np.concatenate([[0], (s != 0).astype(int), [0]])))
         for i, j in zip(runs[::2], runs[1::2] - 1):
             if j == i or s[i] != s[j] or np.any(s[i : j + 1] != s[i]):
