@@ -69,7 +69,7 @@ from ..errors import ModelError, OCPSolveError
 from .bound_overshoot import name_overshoots
 from .error_estimate import UNRESOLVED_OBJECTIVE, UNRESOLVED_STATE, estimate_error
 from .hp_rule import MIN_DEGREE, ROUGH_MIN, refine  # noqa: F401 (MIN_DEGREE, ROUGH_MIN: read here by tests and docs)
-from .junction_times import align_junctions
+from .junction_times import align_junctions, solve_on_arcs
 from .legendre_decay import DECAY_LIMIT, legendre_decay
 from .mesh_companions import (MAX_DEGREE, _degrees, _ends, as_fine, companion_of, finer, finer_at_hand, pilot_of,
                               pilot_pieces, uniform_step)
@@ -184,7 +184,14 @@ def _refine(problem, tolerance, method, ipopt_options, warm_start, progress, max
     score, best = np.inf, (np.inf, None, None, None, ())   # the last estimated solution's largest gated estimate; the lowest
     warm_options = {**WARM_IPOPT, **options}    # capped once the first mesh's cold solve has said how hard it is
     fallback, previous, scale = options, None, False     # previous: the last solution whose error was estimated
-    arcs = None         # input arcs imposed (junction_times): None not tried yet, () none
+    arcs = None         # input arcs imposed (junction_times.ArcSet): None not tried yet, () none
+
+    def warm_solve(mesh, start):    # -> solution, wall, CPU, its mesh (junctions moved where arcs are imposed), arcs
+        if arcs:
+            got, wall, cpu, mesh, moved, _ = solve_on_arcs(problem, mesh, arcs, tol, warm_options, start, progress, first,
+                                                           fallback, scale)
+            return got, wall, cpu, mesh, moved
+        return (*_timed_solve(problem, mesh, warm_options, start, progress, first, fallback, scale), mesh, arcs)
     for r in range(max_refinements + 1):
         entry = {"refinement": r, "intervals": scheme.intervals, "points": scheme.point_count,
                  "mesh": [float(m) for m in scheme.mesh_fractions], "degrees": [int(d) for d in _degrees(scheme)]}
@@ -196,9 +203,11 @@ def _refine(problem, tolerance, method, ipopt_options, warm_start, progress, max
             else:
                 pending = scheme if r > 0 else None
                 cold = {"ipopt.max_iter": first_cap, **options} if first_cap else options
-                sol, t_sol, c_sol = (_timed_solve(problem, scheme, cold, None, progress, first) if warm is None else
-                                     _timed_solve(problem, scheme, warm_options, warm, progress, first, fallback, scale,
-                                                  arcs or ()))
+                if warm is None:
+                    sol, t_sol, c_sol = _timed_solve(problem, scheme, cold, None, progress, first)
+                else:
+                    sol, t_sol, c_sol, scheme, arcs = warm_solve(scheme, warm)
+                    entry.update(mesh=[float(m) for m in scheme.mesh_fractions])
             if first is None:
                 first = sol.transcription
                 later = dict(options)    # the warm solves: IPOPT's complementarity held to the tolerance (mesh_solves)
@@ -224,8 +233,7 @@ def _refine(problem, tolerance, method, ipopt_options, warm_start, progress, max
                                            "points": judge.transcription.scheme.point_count}
             else:
                 pending = pilot_of(scheme, pilot_pieces(sol, tol)) if r == 0 else companion_of(scheme, kinked)
-                companion, t_comp, c_comp = _timed_solve(problem, pending, warm_options, sol, progress, first, fallback, scale,
-                                                         arcs or ())
+                companion, t_comp, c_comp, _, _ = warm_solve(pending, sol)
                 at_hand.append(companion)
             del at_hand[:-AT_HAND]
             entry["solves"] = (solved is None) + (judge is None)
@@ -303,9 +311,9 @@ def _refine(problem, tolerance, method, ipopt_options, warm_start, progress, max
         if arcs is None and est.resolved:       # an input's arcs on its bound imposed, once (junction_times)
             arcs = ()
             if (aligned := align_junctions(problem, scheme, sol, tol, warm_options, progress, first, fallback, scale)):
-                arcs, scheme, solved = aligned
+                solved, _, entry["arcs_cpu_s"], scheme, arcs = aligned
                 warm, parents, at_hand[:] = solved, None, [solved]
-                entry["input_arcs"] = record["input_arcs"] = [dict(vars(a)) for a in arcs]
+                entry["input_arcs"] = [dict(vars(a)) for a in arcs.arcs]
                 continue
         if stalled := stall_message(history, tol, GATED) or est.held_by_arcs(tol, GATED):    # more points no longer pay
             record["message"] = stalled + est.arc_note(tol)
@@ -338,6 +346,8 @@ def _refine(problem, tolerance, method, ipopt_options, warm_start, progress, max
             parents = {_ends(a, b): float(ratio[min(np.searchsorted(mesh, (a + b) / 2, side="right") - 1, len(ratio) - 1)])
                        for a, b in zip(new.mesh_fractions[:-1], new.mesh_fractions[1:])}
         scheme, warm = new, companion
+    if arcs:        # the returned solution's arcs (its own junction times)
+        record["input_arcs"] = [dict(vars(a)) for a in getattr(sol.transcription, "arcs", ())] or None
     sol = record_switches(name_overshoots(lowest_estimate(record, sol, score, best, tol), record, tol), record)
     # The whole refinement's time, estimates and switch checks included (the history's times are its solves')
     record.update(total_time_s=time.perf_counter() - clock[0], total_cpu_s=time.process_time() - clock[1])
