@@ -19,7 +19,7 @@ from ..errors import OCPSolveError
 from .input_arcs import find_arcs, inner_junctions, mismatch, pinned, with_junction_points
 from .mesh_solves import timed_solve
 
-STEPS = 8           # secant steps at most
+STEPS = 12          # secant steps at most (the sixth newcomer's tracking pendulum, 5 junctions from its first mesh: 10)
 FIRST_STEP = 0.05   # the second trial time: this fraction of the junction's interval away from the located one
 GOAL = 0.01         # each junction's mismatch asked: this fraction of the tolerance (relative to the input's scale)
 PULL = 1e-3         # an arc's bound multiplier of the wrong sign beyond this fraction of its largest: the arc does not hold
