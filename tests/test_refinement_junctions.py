@@ -146,7 +146,8 @@ def test_a_push_leaving_its_bound_inside_an_interval_is_judged_by_a_companion_th
         assert mr["met"] or tol < 1e-4, mr["message"]
 
 
-def test_a_torque_leaving_its_bound_leaves_the_states_estimate_within_ten_times_their_true_error():
+@pytest.mark.parametrize("coordinates", ["auto", "maximal"])
+def test_a_torque_leaving_its_bound_leaves_the_states_estimate_within_ten_times_their_true_error(coordinates):
     """A rod turned rest to rest by a motor of at most TAU_MAX (no gravity, least int tau^2): Pontryagin's torque is
     the linear law clipped, tau = clip(c (T/2 - t)), so it leaves and reaches its bound with a kink (junctions of an
     input). Its rate and angle by quadrature of the closed form (c by bisection). At 1e-4 the states' true error lies
@@ -162,7 +163,7 @@ def test_a_torque_leaving_its_bound_leaves_the_states_estimate_within_ten_times_
     rod = model.add_body("rod", m, m * length**2 / 12 * np.diag([1.0, 0.0, 1.0]), rotation="321")
     joints.revolute(model, "hinge", rod.point("A", [0.0, length / 2, 0.0]), axis=(0, 0, 1))
     model.add_torque("motor", rod, ca.vertcat(0, 0, model.add_input("motor")))
-    problem = OptimalControlProblem(model, t_final=t_final)
+    problem = OptimalControlProblem(model, t_final=t_final, coordinates=coordinates)
     problem.initial({"rod.psi": 0.0, "rod.psi_dot": 0.0})
     problem.final({"rod.psi": theta, "rod.psi_dot": 0.0})
     problem.bound("motor", -tau_max, tau_max)
