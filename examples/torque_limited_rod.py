@@ -26,13 +26,14 @@ problem.final({"rod.psi": THETA, "rod.psi_dot": 0.0})
 problem.bound("motor", -TAU_MAX, TAU_MAX)
 problem.minimize_effort(["motor"])
 
-sol = problem.solve(tolerance=1e-4)
-record = sol.mesh_refinement
-print(record["message"])
-print(f"estimate: states {record['estimate']['states']:.1e}, hinge force {record['estimate']['multipliers']:.1e} "
-      f"(of the largest)")
-print(f"objective: {sol.objective:.9f}")
-times = np.array([0.05, 0.2, 0.4, 0.6, 0.75])     # s
-force = np.hypot(sol.interpolate("hinge.v1.lambda", times), sol.interpolate("hinge.v2.lambda", times))
-for t, tau, f in zip(times, sol.interpolate("motor", times), force):
-    print(f"t = {t:.2f} s: torque {tau:+.6f} N m, hinge force {f:.6f} N")
+if __name__ == "__main__":       # the problem alone where another script loads this one (runpy)
+    sol = problem.solve(tolerance=1e-4)
+    record = sol.mesh_refinement
+    print(record["message"])
+    print(f"estimate: states {record['estimate']['states']:.1e}, hinge force {record['estimate']['multipliers']:.1e} "
+          f"(of the largest)")
+    print(f"objective: {sol.objective:.9f}")
+    times = np.array([0.05, 0.2, 0.4, 0.6, 0.75])     # s
+    force = np.hypot(sol.interpolate("hinge.v1.lambda", times), sol.interpolate("hinge.v2.lambda", times))
+    for t, tau, f in zip(times, sol.interpolate("motor", times), force):
+        print(f"t = {t:.2f} s: torque {tau:+.6f} N m, hinge force {f:.6f} N")

@@ -14,9 +14,10 @@ the hinge force relative to its largest; inputs: the torque relative to its boun
 from __future__ import annotations
 
 import argparse
+import runpy
 import time
+from pathlib import Path
 
-import casadi as ca
 import numpy as np
 from scipy.optimize import brentq
 
@@ -68,16 +69,8 @@ def _junction_offset(arcs: list[dict]) -> float:
 
 
 def problem() -> oc.OptimalControlProblem:
-    model = oc.Model("torque_limited_rod", gravity=(0.0, 0.0, 0.0))
-    rod = model.add_body("rod", M, M * L**2 / 12 * np.diag([1.0, 0.0, 1.0]), rotation="321")
-    oc.joints.revolute(model, "hinge", rod.point("A", [0.0, L / 2, 0.0]), axis=(0, 0, 1))
-    model.add_torque("motor", rod, ca.vertcat(0, 0, model.add_input("motor")))
-    p = oc.OptimalControlProblem(model, t_final=T)
-    p.initial({"rod.psi": 0.0, "rod.psi_dot": 0.0})
-    p.final({"rod.psi": THETA, "rod.psi_dot": 0.0})
-    p.bound("motor", -U, U)
-    p.minimize_effort(["motor"])
-    return p
+    """A fresh copy of ``examples/torque_limited_rod.py``'s problem (the example's solve runs only as a script)."""
+    return runpy.run_path(str(Path(__file__).resolve().parents[1] / "examples" / "torque_limited_rod.py"))["problem"]
 
 
 def main(argv=None) -> int:
