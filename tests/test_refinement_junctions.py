@@ -189,3 +189,38 @@ def test_a_torque_leaving_its_bound_leaves_the_states_estimate_within_ten_times_
     t1 = t_final / 2 - tau_max / c
     assert [(a["value"], a["start"], a["end"]) for a in record["input_arcs"]] == [
         (tau_max, 0.0, pytest.approx(t1, abs=1e-7)), (-tau_max, pytest.approx(t_final - t1, abs=1e-7), t_final)]
+
+
+def test_a_path_constraint_that_moves_with_the_input_has_its_arcs_imposed_against_the_closed_form():
+    """The clipped push (a block on a rail, least int F^2, rest to rest over D in T) with |F| <= FMAX written as a bound
+    on the rail's moment instead: the push acts H above the centre of mass, so the rail holds the moment H F
+    (rail.w3), a multiplier that moves with the input. Its arcs are imposed (imposed_arcs: a path constraint's row fixed
+    on them) and the refinement meets 1e-6 on the closed form F = clip(c (T/2 - t), -FMAX, FMAX), c by bisection on a
+    400,001-point quadrature of x(T) = D (before: the kinks at its junctions held such a bound near 1e-5)."""
+    from scipy.optimize import brentq
+
+    m, dist, t_final, f_max, h = 1.5, 0.8, 1.2, 4.0, 0.1
+    model = Model("clipped_moment", gravity=(0.0, 0.0, 0.0))
+    block = model.add_body("block", m, np.diag([0.01, 0.01, 0.01]), rotation="321")
+    joints.prismatic(model, "rail", block.com, axis=(1, 0, 0))
+    model.add_force("push", block.point("P", (0.0, h, 0.0)), ca.vertcat(model.add_input("F"), 0, 0))
+    problem = OptimalControlProblem(model, t_final=t_final)
+    problem.initial({"block.x": 0.0, "block.vbar_x": 0.0})
+    problem.final({"block.x": dist, "block.vbar_x": 0.0})
+    problem.subject_to(problem.multiplier("rail.w3"), -h * f_max, h * f_max, "rail moment")
+    problem.minimize_effort(["F"])
+    sol = problem.solve(tolerance=1e-6)
+    record = sol.mesh_refinement
+    assert record["met"], record["message"]
+    assert [a["path"] for a in record["input_arcs"]] == [True, True]
+
+    tt = np.linspace(0.0, t_final, 400_001)
+    c = brentq(lambda c: np.trapezoid((t_final - tt) * np.clip(c * (t_final / 2 - tt), -f_max, f_max), tt) / m - dist,
+               0.1, 1e3, xtol=1e-14)
+    force = np.clip(c * (t_final / 2 - tt), -f_max, f_max)
+    speed = np.concatenate([[0.0], np.cumsum((force[1:] + force[:-1]) / 2 * np.diff(tt))]) / m
+    grid = np.linspace(0.0, t_final, 4001)
+    true_speed = np.abs(sol.interpolate("block.vbar_x", grid) - np.interp(grid, tt, speed)).max()
+    assert true_speed <= record["estimate"]["states"]
+    moment = np.abs(sol.interpolate("rail.w3.lambda", grid[1:]) - h * np.interp(grid[1:], tt, force)).max()
+    assert moment <= record["estimate"]["multipliers"] * record["load_scale"]

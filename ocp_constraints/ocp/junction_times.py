@@ -1,13 +1,15 @@
-"""The junction times of input arcs, found as roots (issue 19; the arcs and why: :mod:`.input_arcs`).
+"""The junction times of imposed arcs, an input's or a path constraint's, found as roots (issue 19; the arcs and
+why: :mod:`.imposed_arcs`).
 
-A refinement that has located an input's arc on its bound (a solution resolved, not yet within the tolerance) tries
-once to impose it: every inner junction becomes a mesh point, and its time is moved by secant steps, each a warm solve
-of the mesh with the arcs imposed, until the input's continuity mismatch there (:func:`.input_arcs.mismatch`) is below
-:data:`GOAL` times the tolerance. The first step moves by :data:`FIRST_STEP` of the junction's interval, in the
-direction the mismatch points to (a free side above the bound after an arc's end: the arc ends later). The arcs are
-kept only if they hold (:func:`holds`): the free side within the bounds where they were dropped, and each arc's bound
-multiplier pushing the input against its bound (IPOPT's ``lam_x``: >= 0 on an upper bound, <= 0 on a lower), not
-pulling it off. Otherwise, or where a step's solve fails or the steps run out, the refinement goes on without them.
+A refinement that has located such an arc on its bound (a solution resolved, not yet within the tolerance) tries once
+to impose it: every inner junction becomes a mesh point, and its time is moved by secant steps, each a warm solve of
+the mesh with the arcs imposed, until the quantity's continuity mismatch there (:func:`.imposed_arcs.mismatch`) is
+below :data:`GOAL` times the tolerance. The first step moves by :data:`FIRST_STEP` of the junction's interval, in the
+direction the mismatch points to (a free side above an upper bound after an arc's end: the arc ends later). The arcs
+are kept only if they hold (:func:`holds`): the free side within the bounds where they were dropped, and each arc's
+multiplier pushing the quantity against its bound (IPOPT's ``lam_x`` or ``lam_g``: >= 0 on an upper bound, <= 0 on a
+lower), not pulling it off. Otherwise, or where a step's solve fails or the steps run out, the refinement goes on
+without them. Every later solve, the companion's too, moves its own junctions so (:func:`solve_on_arcs`).
 """
 from __future__ import annotations
 
@@ -16,7 +18,7 @@ from dataclasses import dataclass, replace
 import numpy as np
 
 from ..errors import OCPSolveError
-from .input_arcs import find_arcs, inner_junctions, mismatch, pinned, with_junction_points
+from .imposed_arcs import find_arcs, inner_junctions, mismatch, path_rows, path_values, pinned, with_junction_points
 from .mesh_solves import timed_solve
 
 STEPS = 12          # secant steps at most (the sixth newcomer's tracking pendulum, 5 junctions from its first mesh: 10)
@@ -25,28 +27,44 @@ GOAL = 0.01         # each junction's mismatch asked: this fraction of the toler
 PULL = 1e-3         # an arc's bound multiplier of the wrong sign beyond this fraction of its largest: the arc does not hold
 
 
+def _bounds(tr, arc) -> tuple[float, float]:
+    """The lower and upper bound of an arc's quantity (an input's, or a path constraint's)."""
+    if arc.path:
+        c = next(c for c in tr.problem.path_constraints if c.label == arc.quantity)
+        return c.lower, c.upper
+    return getattr(tr, "user_problem", tr.problem).bounds[arc.quantity]
+
+
 def holds(solution, arcs, scale: dict, tol: float) -> bool:
     """Whether the imposed ``arcs`` are the optimum's (module notes)."""
     tr = solution.transcription
-    bounds = getattr(tr, "user_problem", tr.problem).bounds
-    w, lam = np.asarray(solution.decision_vector, float), solution.bound_multipliers
     fixed, freed = pinned(tr, arcs)
-    for (k, _, _), cols in zip(inner_junctions(arcs, float(solution.t_final)), freed):
-        lo, hi = bounds[arcs[k].input]
-        slack = GOAL * tol * scale[arcs[k].input]
-        if np.any(w[cols] < lo - slack) or np.any(w[cols] > hi + slack):
+    values = {a.quantity: path_values(solution)[a.quantity] if a.path else np.asarray(solution.decision_vector, float)
+              for a in arcs}
+    for (k, _, _), idx in zip(inner_junctions(arcs, float(solution.t_final)), freed):
+        a = arcs[k]
+        lo, hi = _bounds(tr, a)
+        v = values[a.quantity][_positions(tr, a, idx)] if a.path else values[a.quantity][idx]
+        slack = GOAL * tol * scale[a.quantity]
+        if np.any(v < lo - slack) or np.any(v > hi + slack):
             return False
-    for a, cols in zip(arcs, fixed):
-        upper = a.value == bounds[a.input][1]
-        pull = -lam[cols] if upper else lam[cols]
-        if cols.size and pull.max() > PULL * np.abs(lam[cols]).max():
+    for a, idx in zip(arcs, fixed):
+        lam = (solution.row_multipliers if a.path else solution.bound_multipliers)[idx]
+        pull = -lam if a.value == _bounds(tr, a)[1] else lam
+        if idx.size and pull.max() > PULL * np.abs(lam).max():
             return False
     return True
 
 
+def _positions(tr, arc, rows: np.ndarray) -> np.ndarray:
+    """The points of a path constraint's ``rows``."""
+    point = {int(row): i for i, row in enumerate(path_rows(tr, arc.quantity))}
+    return np.asarray([point[int(row)] for row in rows], int)
+
+
 @dataclass(frozen=True)
 class ArcSet:
-    """The arcs a refinement imposes (:mod:`.input_arcs`), and each input's scale (its bounds' largest magnitude)."""
+    """The arcs a refinement imposes (:mod:`.imposed_arcs`), and each quantity's scale (its bounds' largest magnitude)."""
 
     arcs: tuple
     scale: dict
@@ -77,9 +95,8 @@ def solve_on_arcs(problem, scheme, arc_set: ArcSet, tol: float, options: dict, w
             return sol, wall, cpu, trial, ArcSet(tuple(arcs), arc_set.scale), True
         if before is None:
             # An arc's end later, or its start earlier, where the free side is past its bound there.
-            bounds = getattr(first, "user_problem", first.problem).bounds
             sign = np.array([1.0 if side == "end" else -1.0 for _, side, _ in junctions])
-            upper = np.array([1.0 if arcs[k].value == bounds[arcs[k].input][1] else -1.0 for k, _, _ in junctions])
+            upper = np.array([1.0 if arcs[k].value == _bounds(first, arcs[k])[1] else -1.0 for k, _, _ in junctions])
             new = times + step * sign * np.sign(g) * upper
         else:
             old_times, old_g = before

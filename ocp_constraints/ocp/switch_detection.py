@@ -198,7 +198,7 @@ def detect_switches(solution) -> list[Switch]:
 
 
 def _on_arcs(found: list[Switch], solution) -> list[Switch]:
-    """``found``, the junctions of an input whose arcs are imposed (:mod:`.input_arcs`) put at their mesh points, where
+    """``found``, the junctions of a quantity whose arcs are imposed (:mod:`.imposed_arcs`) put at their mesh points, where
     they are by construction: located from the points, they fall a little inside the free interval next to them, and
     read as kinks inside it they floored the estimate at the kink's size (the torque-limited rod at 1e-5: 1.3e-2 of
     the load, halving with each refinement, against a true error of 1e-7)."""
@@ -206,7 +206,7 @@ def _on_arcs(found: list[Switch], solution) -> list[Switch]:
     T, mesh = float(solution.t_final), solution.transcription.scheme.mesh_fractions
     ends: dict = {}
     for a in arcs:
-        ends.setdefault(a.input, []).extend(x / T for x in (a.start, a.end) if 0.0 < x < T)
+        ends.setdefault(a.quantity, []).extend(x / T for x in (a.start, a.end) if 0.0 < x < T)
     out = []
     for w in found:
         if w.kind == "junction" and ends.get(w.quantity):

@@ -36,7 +36,7 @@ from .compiled_elements import machine_code
 from .nlp_assembly import BlockNLP, derivative_cache
 from .bounds import variable_bounds
 from .guess import consistent_guess, from_solution
-from .input_arcs import pin_arcs
+from .imposed_arcs import pin_arcs
 from .interpolation import interpolation_matrix
 from .layout import Layout
 from .objective_scaling import OPTION as OBJECTIVE_SCALING, objective_scale, small_objective_scale
@@ -55,7 +55,7 @@ DEFAULT_IPOPT = {"ipopt.tol": 1e-10, "ipopt.constr_viol_tol": 1e-10, "ipopt.max_
 class Transcription(ElementKinds):
     """The NLP of one problem and one scheme, built once, solvable many times."""
 
-    # Input arcs imposed on the bounds (.input_arcs.pin_arcs; set by a refinement's junction alignment)
+    # Arcs imposed on the bounds (.imposed_arcs.pin_arcs; set by a refinement's junction alignment)
     arcs: tuple = ()
 
     def __init__(self, problem, scheme: Scheme, like: Transcription | None = None):
@@ -262,9 +262,9 @@ class Transcription(ElementKinds):
             self._solver_options = opts
         setup = time.perf_counter() - started
         lbx, ubx = self._bounds(x0)
-        if self.arcs:
-            pin_arcs(self, self.arcs, lbx, ubx)
         lbg, ubg = self._boundary_values()
+        if self.arcs:
+            pin_arcs(self, self.arcs, lbx, ubx, lbg, ubg)
         self._monitor.reset(progress, lbg, ubg)
         started = time.perf_counter()
         with stop_on_signals(self._monitor):
@@ -279,7 +279,9 @@ class Transcription(ElementKinds):
             self, np.asarray(res["x"]).ravel(), stats, float(res["f"]),
             {"transcription": self.build_time, "solver_setup": setup, "solve": solve_time}))
         solution.objective_scale = opts.get(OBJECTIVE_SCALING, 1.0)
-        solution.bound_multipliers = np.asarray(res["lam_x"], float).ravel()     # .junction_times checks arcs by them
+        # .junction_times checks imposed arcs by them
+        solution.bound_multipliers = np.asarray(res["lam_x"], float).ravel()
+        solution.row_multipliers = np.asarray(res["lam_g"], float).ravel()
         if not stats.get("success", False):
             raise OCPSolveError(
                 f"IPOPT did not solve '{self.problem.model.name}' with {self.scheme.label} "

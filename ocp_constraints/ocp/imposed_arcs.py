@@ -1,0 +1,235 @@
+"""A quantity held on its bound over an arc, imposed on the NLP (issue 19; :mod:`.junction_times` finds the arcs' ends).
+
+An input with an effort term (a torque limit on a motor whose ``tau^2`` is minimized) that reaches its bound rides it
+over an arc and leaves it continuously, with a kink, at each *junction*; so does a path constraint that moves with
+such inputs (a hinge-force bound on that motor's rod, :func:`moves_with_inputs`). With the bound as an inequality, two
+things keep the NLP about 1e-5 from the optimum, however fine the mesh (the torque-limited rod of
+``examples/torque_limited_rod.py``; ``python scripts/junction_at_mesh_point.py``):
+
+- a junction inside a mesh interval, a kink that no polynomial follows;
+- IPOPT's barrier on the arc next to a junction: it holds the quantity ``mu / z`` off the bound, and the bound's
+  multiplier ``z`` falls to zero at the junction (with mesh points at the exact junctions, the rod's torque there was
+  1.2e-5 of the bound short of it, whatever the tolerance asked of the mesh).
+
+So the arc is imposed (:func:`pin_arcs`): the quantity fixed at its bound at the arc's points (an input's variable, a
+path constraint's row), its bound dropped over the free interval next to each junction. The junction must then be a
+mesh point, and its time is the root of the quantity's continuity mismatch there (:func:`mismatch`): the free side's
+polynomial at the junction less the bound (:mod:`.junction_times`). On the rod at 1e-6 the junctions end 7.6e-12 s
+from the closed form's and the torque 2.5e-11 of its bound from it, on 51 points
+(``python scripts/junction_at_mesh_point.py``). State bounds are not imposed: reached tangentially, their mismatch
+has no simple root.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from .schemes import Radau
+from .switch_detection import activity, bounded_quantities, detect_switches, penalized_inputs
+from .transcription_elements import path_scale
+
+
+@dataclass(frozen=True)
+class Arc:
+    """``quantity`` held at ``value`` (one of its bounds) from ``start`` to ``end`` (s): an input, or with ``path`` a path
+    constraint (its label); a start at 0 or an end at the final time is no junction (the arc runs from the start or to
+    the end)."""
+
+    quantity: str
+    value: float
+    start: float
+    end: float
+    path: bool = False
+
+
+def _times(tr) -> tuple[np.ndarray, np.ndarray, float]:
+    T = float(getattr(tr, "user_problem", tr.problem).t_final)
+    return tr.fractions * T, tr.scheme.mesh_fractions * T, T
+
+
+def _input_columns(tr, name: str) -> np.ndarray:
+    """The decision-vector index of input ``name`` at every point."""
+    lay = tr.layout
+    first = int(np.sum(lay.sizes()[:3]))         # the blocks x, a, lam come before the inputs (.layout)
+    r = list(getattr(tr, "user_problem", tr.problem).model.inputs).index(name)
+    return first + np.arange(lay.n_points) * lay.n_in + r
+
+
+def path_rows(tr, label: str) -> np.ndarray | None:
+    """The NLP row of path constraint ``label`` at every point, or None where the transcription keeps its path rows
+    elsewhere than after each point's position rows (the condensed one)."""
+    names = [c.label for c in tr.problem.path_constraints]
+    if label not in names or len(tr.position_rows_at) != tr.layout.n_points:
+        return None
+    rows = []
+    for i in range(tr.layout.n_points):
+        element, instance, first = tr.position_rows_at[i]
+        if not element.startswith(("point", "collocation_point")):
+            return None
+        rows.append(tr.block.rows(element, instance) + first + tr.layout.nh + names.index(label))
+    return np.asarray(rows)
+
+
+def moves_with_inputs(solution, label: str, at: np.ndarray) -> bool:
+    """Whether path constraint ``label`` changes with the inputs at points ``at`` (its row's derivative in them, times
+    their scale, over 1e-3 of its own): leaving its bound it then turns with them, transversally, and its mismatch at a
+    junction has a simple root. A load that follows the speeds alone (a hinge's centripetal pull, a speed limit seen
+    through a multiplier) leaves its bound tangentially: its mismatch is flat at the root and the secant wanders (the
+    holdouts' hinge at 1e-4: twelve steps, none converged, 15% more CPU). In maximal coordinates a multiplier is a
+    variable of its own and no row moves with the inputs: there only the inputs' arcs are imposed."""
+    tr = solution.transcription
+    path = tr.point_pieces[0]["path"]
+    j = [c.label for c in tr.problem.path_constraints].index(label)
+    X, _, L, W, _, _ = (np.asarray(b, float) for b in tr.layout.split(np.asarray(solution.decision_vector, float)))
+    pr = getattr(tr, "user_problem", tr.problem)
+    span = np.array([max([abs(b) for b in pr.bounds.get(n, (np.nan, np.nan)) if np.isfinite(b)] + [1.0])
+                     for n in pr.model.inputs])
+    for i in at:
+        base = float(np.asarray(path(X[:, i], L[:, i], W[:, i], solution.t[i]))[j, 0])
+        for k in range(W.shape[0]):
+            step = 1e-6 * span[k]
+            w = W[:, i].copy()
+            w[k] += step
+            if abs(float(np.asarray(path(X[:, i], L[:, i], w, solution.t[i]))[j, 0]) - base) / step * span[k] > 1e-3:
+                return True
+    return False
+
+
+def _path_scale(tr, label: str) -> float:
+    return path_scale(next(c for c in tr.problem.path_constraints if c.label == label))
+
+
+def _indices(tr, arc: Arc) -> np.ndarray:
+    return path_rows(tr, arc.quantity) if arc.path else _input_columns(tr, arc.quantity)
+
+
+def inner_junctions(arcs: list[Arc], T: float) -> list[tuple[int, str, float]]:
+    """``(arc, "start" | "end", time)`` of every inner junction."""
+    eps = 1e-9 * T
+    return [(k, side, at) for k, a in enumerate(arcs) for side, at in (("start", a.start), ("end", a.end))
+            if eps < at < T - eps]
+
+
+def _free_interval(t: np.ndarray, mesh: np.ndarray, at: float, side: str, T: float) -> np.ndarray:
+    """The points of the free interval next to a junction at mesh point ``at``: before an arc's start (up to ``at``,
+    which Radau's interval ends on), after an arc's end (``at`` not included)."""
+    eps = 1e-9 * T
+    k = int(np.argmin(np.abs(mesh - at)))
+    if side == "start":
+        return (t > mesh[max(k - 1, 0)] + eps) & (t <= at + eps)
+    return (t > at + eps) & (t <= mesh[min(k + 1, len(mesh) - 1)] + eps)
+
+
+def pinned(tr, arcs: list[Arc]) -> tuple[list[np.ndarray], list[np.ndarray]]:
+    """The indices (decision variables for an input, NLP rows for a path constraint) each arc fixes (its points after
+    its start: at an inner start the point is the free interval's last, whose value is the mismatch; ``t = 0`` left to
+    Radau's extrapolation), and those whose bound each inner junction drops (the free interval next to it; each
+    junction a mesh point)."""
+    t, mesh, T = _times(tr)
+    eps = 1e-9 * T
+    fixed = [_indices(tr, a)[(t > max(a.start, 0.0) + eps) & (t <= a.end + eps)] for a in arcs]
+    freed = [_indices(tr, arcs[k])[_free_interval(t, mesh, at, side, T)] for k, side, at in inner_junctions(arcs, T)]
+    return fixed, freed
+
+
+def pin_arcs(tr, arcs: list[Arc], lbx: np.ndarray, ubx: np.ndarray, lbg: np.ndarray, ubg: np.ndarray) -> None:
+    """Impose ``arcs`` on a transcription's variable and row bounds, in place (:func:`pinned`; a path row holds its
+    constraint over :func:`.transcription_elements.path_scale`)."""
+    fixed, freed = pinned(tr, arcs)
+    junctions = inner_junctions(arcs, _times(tr)[2])
+    for a, idx in zip(arcs, fixed):
+        lo, hi = (lbg, ubg) if a.path else (lbx, ubx)
+        lo[idx] = hi[idx] = a.value / (_path_scale(tr, a.quantity) if a.path else 1.0)
+    for (k, _, _), idx in zip(junctions, freed):
+        lo, hi = (lbg, ubg) if arcs[k].path else (lbx, ubx)
+        lo[idx], hi[idx] = -np.inf, np.inf
+
+
+def mismatch(solution, arcs: list[Arc], scale: dict[str, float]) -> np.ndarray:
+    """Per inner junction (:func:`inner_junctions`' order): the free side's input at the junction less the arc's value,
+    over the input's ``scale``: before a start, the free interval's last point (at the junction); after an end, the
+    polynomial through the free interval's points, evaluated at the junction."""
+    tr = solution.transcription
+    t, mesh, T = _times(tr)
+    out = []
+    for k, side, at in inner_junctions(arcs, T):
+        a = arcs[k]
+        u = path_values(solution)[a.quantity] if a.path else np.asarray(solution.sample(a.quantity), float).ravel()
+        free = _free_interval(t, mesh, at, side, T)
+        if side == "start":
+            value = u[np.flatnonzero(free)[-1]]
+        else:
+            ts, us = t[free] - at, u[free]
+            value = float(np.polyval(np.polyfit(ts, us, len(ts) - 1), 0.0))
+        out.append((value - a.value) / scale[a.quantity])
+    return np.asarray(out, float)
+
+
+def path_values(solution) -> dict[str, np.ndarray]:
+    """Each path constraint's value at every point, by label (kept on the solution)."""
+    kept = solution.__dict__.get("_path_values")
+    if kept is None:
+        kept = solution.__dict__["_path_values"] = {name: v for name, v, *_ in bounded_quantities(solution)}
+    return kept
+
+
+def find_arcs(solution) -> tuple[list[Arc], dict[str, float]]:
+    """The arcs on which a quantity that leaves its bound continuously sits at a bound, at two points or more, their ends
+    at the located junctions (:func:`.switch_detection.detect_switches`); and each such quantity's scale (its bounds'
+    largest magnitude). Such a quantity is an input with an effort term (:func:`.switch_detection.penalized_inputs`), or a
+    path constraint of the inputs or multipliers where every input has one (the inputs follow the costates
+    continuously, so does the constraint); not a path constraint of the states alone, nor a state's bound (reached
+    tangentially: no root to find), nor a transcription whose path rows are elsewhere (the condensed one)."""
+    tr = solution.transcription
+    pr = getattr(tr, "user_problem", tr.problem)
+    t, _, T = _times(tr)
+    smooth, located, arcs, scale = None, None, [], {}
+    for name, v, lo, hi, states_only, continuous in bounded_quantities(solution):
+        if states_only or continuous:
+            continue
+        s, _ = activity(v, lo, hi)
+        s[0] = 0                                    # t = 0: Radau's extrapolated input, the multipliers' acceleration level
+        if not s.any():
+            continue
+        if smooth is None:      # only where a quantity reaches a bound (the curvature at every point: ~1 ms)
+            smooth = penalized_inputs(solution)
+            located = [w for w in detect_switches(solution) if w.kind == "junction"]
+        path = name not in pr.model.inputs
+        if (name not in smooth) if not path else (set(smooth) != set(pr.model.inputs) or path_rows(tr, name) is None
+                                                  or not moves_with_inputs(solution, name, np.flatnonzero(s)[:3])):
+            continue
+        runs = np.flatnonzero(np.diff(np.concatenate([[0], (s != 0).astype(int), [0]])))
+        for i, j in zip(runs[::2], runs[1::2] - 1):
+            if j == i or s[i] != s[j] or np.any(s[i : j + 1] != s[i]):
+                continue
+            at = [w.fraction * T for w in located if w.quantity == name]
+            start = 0.0 if i <= 1 else _nearest(at, t[i - 1], t[i])
+            end = T if j == len(t) - 1 else _nearest(at, t[j], t[j + 1])
+            arcs.append(Arc(name, float(lo if s[i] < 0 else hi), start, end, path))
+            scale[name] = max([abs(b) for b in (lo, hi) if np.isfinite(b)] + [1e-12])
+    return arcs, scale
+
+
+def _nearest(located: list[float], a: float, b: float) -> float:
+    """The located junction between points ``a`` and ``b`` (or nearest to them), else their midpoint."""
+    inside = [x for x in located if a - (b - a) <= x <= b + (b - a)]
+    return min(inside, key=lambda x: abs(x - 0.5 * (a + b))) if inside else 0.5 * (a + b)
+
+
+def with_junction_points(scheme: Radau, times: list[float], T: float) -> Radau:
+    """``scheme`` with a mesh point at each junction time: the nearest mesh point moved there where it lies within a
+    quarter of its shorter interval (not the ends), else the interval holding it split there (both pieces at its
+    degree)."""
+    mesh = list(scheme.mesh_fractions)
+    degrees = list(np.asarray(scheme.degrees if scheme.degrees is not None else [scheme.degree] * scheme.intervals))
+    for at in sorted(x / T for x in times):
+        k = int(np.argmin(np.abs(np.asarray(mesh) - at)))
+        shorter = min(mesh[k] - mesh[k - 1] if k > 0 else np.inf, mesh[k + 1] - mesh[k] if k + 1 < len(mesh) else np.inf)
+        if 0 < k < len(mesh) - 1 and abs(mesh[k] - at) <= 0.25 * shorter:
+            mesh[k] = at
+        else:
+            j = int(np.searchsorted(mesh, at)) - 1
+            mesh.insert(j + 1, at)
+            degrees.insert(j, degrees[j])
+    return Radau(mesh=tuple(float(m) for m in mesh), degrees=tuple(int(d) for d in degrees))
