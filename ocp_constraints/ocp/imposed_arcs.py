@@ -32,9 +32,9 @@ from .transcription_elements import path_scale
 
 @dataclass(frozen=True)
 class Arc:
-    """``quantity`` held at ``value`` (one of its bounds) from ``start`` to ``end`` (s): an input, or with ``path`` a path
-    constraint (its label); a start at 0 or an end at the final time is no junction (the arc runs from the start or to
-    the end)."""
+    """``quantity`` held at ``value`` (one of its bounds) from ``start`` to ``end`` (fractions of the horizon): an input,
+    or with ``path`` a path constraint (its label); a start at 0 or an end at 1 is no junction (the arc runs from the
+    start or to the end)."""
 
     quantity: str
     value: float
@@ -44,8 +44,9 @@ class Arc:
 
 
 def _times(tr) -> tuple[np.ndarray, np.ndarray, float]:
-    T = float(getattr(tr, "user_problem", tr.problem).t_final)
-    return tr.fractions * T, tr.scheme.mesh_fractions * T, T
+    """The points and mesh points, and the horizon, in fractions of the horizon: arcs are held in fractions, so that a
+    free final time stretches them with the mesh."""
+    return tr.fractions, tr.scheme.mesh_fractions, 1.0
 
 
 def _input_columns(tr, name: str) -> np.ndarray:
@@ -217,7 +218,7 @@ def _nearest(located: list[float], a: float, b: float) -> float:
     return min(inside, key=lambda x: abs(x - 0.5 * (a + b))) if inside else 0.5 * (a + b)
 
 
-def with_junction_points(scheme: Radau, times: list[float], T: float) -> Radau:
+def with_junction_points(scheme: Radau, times: list[float], T: float = 1.0) -> Radau:
     """``scheme`` with a mesh point at each junction time: the nearest mesh point moved there where it lies within a
     quarter of its shorter interval (not the ends), else the interval holding it split there (both pieces at its
     degree)."""

@@ -27,6 +27,11 @@ GOAL = 0.01         # each junction's mismatch asked: this fraction of the toler
 PULL = 1e-3         # an arc's bound multiplier of the wrong sign beyond this fraction of its largest: the arc does not hold
 
 
+def described(arcs, t_final: float) -> list[dict]:
+    """The arcs as the refinement's record gives them: quantity, value, start and end in s, path."""
+    return [dict(vars(a), start=a.start * t_final, end=a.end * t_final) for a in arcs]
+
+
 def _bounds(tr, arc) -> tuple[float, float]:
     """The lower and upper bound of an arc's quantity (an input's, or a path constraint's)."""
     if arc.path:
@@ -41,7 +46,7 @@ def holds(solution, arcs, scale: dict, tol: float) -> bool:
     fixed, freed = pinned(tr, arcs)
     values = {a.quantity: path_values(solution)[a.quantity] if a.path else np.asarray(solution.decision_vector, float)
               for a in arcs}
-    for (k, _, _), idx in zip(inner_junctions(arcs, float(solution.t_final)), freed):
+    for (k, _, _), idx in zip(inner_junctions(arcs, 1.0), freed):
         a = arcs[k]
         lo, hi = _bounds(tr, a)
         v = values[a.quantity][_positions(tr, a, idx)] if a.path else values[a.quantity][idx]
@@ -78,7 +83,7 @@ def solve_on_arcs(problem, scheme, arc_set: ArcSet, tol: float, options: dict, w
     newcomer's pendulum under a torque bound at 1e-4: "met", its hinge force 1.2x the estimate, 6.5e-6 s off a
     junction). Returns ``(solution, wall s, CPU s, mesh, arc_set, converged)``; a step IPOPT does not solve raises
     its :class:`OCPSolveError`."""
-    T = float(getattr(first, "user_problem", first.problem).t_final)
+    T = 1.0     # arcs and meshes in fractions of the horizon
     arcs, junctions = list(arc_set.arcs), inner_junctions(list(arc_set.arcs), T)
     times = np.array([at for _, _, at in junctions])
     mesh = scheme.mesh_fractions * T
@@ -113,10 +118,8 @@ def align_junctions(problem, scheme, solution, tol: float, options: dict, progre
     """The first imposition of ``solution``'s arcs (:func:`solve_on_arcs` from their located junctions):
     ``(solution, wall s, CPU s, mesh, arc_set)``, or None where there is no inner junction, a step is not solved, the
     steps do not converge or the arcs are not found to hold (module notes)."""
-    if first.layout.free_time:
-        return None         # a free final time moves every junction with it: not done
     arcs, scale = find_arcs(solution)
-    if not inner_junctions(arcs, float(solution.t_final)):
+    if not inner_junctions(arcs, 1.0):
         return None
     try:
         sol, wall, cpu, mesh, arc_set, converged = solve_on_arcs(problem, scheme, ArcSet(tuple(arcs), scale), tol, options,

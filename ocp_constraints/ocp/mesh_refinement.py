@@ -69,7 +69,7 @@ from ..errors import ModelError, OCPSolveError
 from .bound_overshoot import name_overshoots
 from .error_estimate import UNRESOLVED_OBJECTIVE, UNRESOLVED_STATE, estimate_error
 from .hp_rule import MIN_DEGREE, ROUGH_MIN, refine  # noqa: F401 (MIN_DEGREE, ROUGH_MIN: read here by tests and docs)
-from .junction_times import align_junctions, solve_on_arcs
+from .junction_times import align_junctions, described, solve_on_arcs
 from .legendre_decay import DECAY_LIMIT, legendre_decay
 from .mesh_companions import (MAX_DEGREE, _degrees, _ends, as_fine, companion_of, finer, finer_at_hand, pilot_of,
                               pilot_pieces, uniform_step)
@@ -313,7 +313,7 @@ def _refine(problem, tolerance, method, ipopt_options, warm_start, progress, max
             if (aligned := align_junctions(problem, scheme, sol, tol, warm_options, progress, first, fallback, scale)):
                 solved, _, entry["arcs_cpu_s"], scheme, arcs = aligned
                 warm, parents, at_hand[:] = solved, None, [solved]
-                entry["input_arcs"] = [dict(vars(a)) for a in arcs.arcs]
+                entry["input_arcs"] = described(arcs.arcs, solved.t_final)
                 continue
         if stalled := stall_message(history, tol, GATED) or est.held_by_arcs(tol, GATED):    # more points no longer pay
             record["message"] = stalled + est.arc_note(tol)
@@ -347,7 +347,7 @@ def _refine(problem, tolerance, method, ipopt_options, warm_start, progress, max
                        for a, b in zip(new.mesh_fractions[:-1], new.mesh_fractions[1:])}
         scheme, warm = new, companion
     if arcs:        # the returned solution's arcs (its own junction times)
-        record["input_arcs"] = [dict(vars(a)) for a in getattr(sol.transcription, "arcs", ())] or None
+        record["input_arcs"] = described(getattr(sol.transcription, "arcs", ()), sol.t_final) or None
     sol = record_switches(name_overshoots(lowest_estimate(record, sol, score, best, tol), record, tol), record)
     # The whole refinement's time, estimates and switch checks included (the history's times are its solves')
     record.update(total_time_s=time.perf_counter() - clock[0], total_cpu_s=time.process_time() - clock[1])

@@ -203,10 +203,10 @@ def _on_arcs(found: list[Switch], solution) -> list[Switch]:
     read as kinks inside it they floored the estimate at the kink's size (the torque-limited rod at 1e-5: 1.3e-2 of
     the load, halving with each refinement, against a true error of 1e-7)."""
     arcs = getattr(solution.transcription, "arcs", ())
-    T, mesh = float(solution.t_final), solution.transcription.scheme.mesh_fractions
+    mesh = solution.transcription.scheme.mesh_fractions
     ends: dict = {}
-    for a in arcs:
-        ends.setdefault(a.quantity, []).extend(x / T for x in (a.start, a.end) if 0.0 < x < T)
+    for a in arcs:      # in fractions of the horizon
+        ends.setdefault(a.quantity, []).extend(x for x in (a.start, a.end) if 0.0 < x < 1.0)
     out = []
     for w in found:
         if w.kind == "junction" and ends.get(w.quantity):
