@@ -45,8 +45,9 @@
    (no bound located a switch there), that interval is halved and the refinement goes on
    (:func:`.nonsmooth.nonsmooth_splits`); on the last refinement such intervals withdraw "met" and are named
    (:func:`.nonsmooth.flag_nonsmooth`): there the companion is no upper bound;
-6. once, where an input with an effort term rides its bound and the estimate is resolved but not met: its arcs
-   imposed and their junctions made mesh points at the roots of its continuity mismatch (:mod:`.junction_times`);
+6. where an input with an effort term (or a path constraint moving with such inputs) rides its bound and the estimate
+   is resolved but not met: its arcs imposed and their junctions made mesh points at the roots of its continuity
+   mismatch (:mod:`.junction_times`; each arc structure tried once);
 7. stop ("met" not claimed) when more points no longer pay: a second stall, one with no progress, or a run of small
    steps that never lowered the estimate (:mod:`.mesh_progress`); a refinement that ends "not met" returns the
    solution with the lowest estimate it saw (:func:`.mesh_progress.lowest_estimate`), not always its last.
@@ -184,7 +185,7 @@ def _refine(problem, tolerance, method, ipopt_options, warm_start, progress, max
     score, best = np.inf, (np.inf, None, None, None, ())   # the last estimated solution's largest gated estimate; the lowest
     warm_options = {**WARM_IPOPT, **options}    # capped once the first mesh's cold solve has said how hard it is
     fallback, previous, scale = options, None, False     # previous: the last solution whose error was estimated
-    arcs = None         # input arcs imposed (junction_times.ArcSet): None not tried yet, () none
+    arcs, tried = None, set()      # arcs imposed (junction_times.ArcSet), the arc structures tried
 
     def warm_solve(mesh, start):    # -> solution, wall, CPU, its mesh (junctions moved where arcs are imposed), arcs
         if arcs:
@@ -308,9 +309,9 @@ def _refine(problem, tolerance, method, ipopt_options, warm_start, progress, max
                                       f"{spots} of the horizon")
             flag_nonsmooth(sol, tol, record, smoothness, windows)
             break
-        if arcs is None and est.resolved:       # an input's arcs on its bound imposed, once (junction_times)
-            arcs = ()
-            if (aligned := align_junctions(problem, scheme, sol, tol, warm_options, progress, first, fallback, scale)):
+        if arcs is None and est.resolved:       # arcs on a bound imposed, each structure tried once (junction_times)
+            if (aligned := align_junctions(problem, scheme, sol, tol, warm_options, progress, first, fallback, scale,
+                                           tried)):
                 solved, _, entry["arcs_cpu_s"], scheme, arcs = aligned
                 warm, parents, at_hand[:] = solved, None, [solved]
                 entry["input_arcs"] = described(arcs.arcs, solved.t_final)
