@@ -25,6 +25,9 @@ STEPS = 12          # secant steps at most (the sixth newcomer's tracking pendul
 FIRST_STEP = 0.05   # the second trial time: this fraction of the junction's interval away from the located one
 GOAL = 0.01         # each junction's mismatch asked: this fraction of the tolerance (relative to the input's scale)
 PULL = 1e-3         # an arc's bound multiplier of the wrong sign beyond this fraction of its largest: the arc does not hold
+# Arc structures tried at most per refinement: where none holds (the least-time crane and cart-pole, whose imposed solves
+# do not solve), each try costs up to STEPS warm solves; with no limit they took 20-25% more CPU at 1e-4 and 1e-5.
+TRIES = 2
 
 
 def described(arcs, t_final: float) -> list[dict]:
@@ -122,12 +125,12 @@ def align_junctions(problem, scheme, solution, tol: float, options: dict, progre
     """The first imposition of ``solution``'s arcs (:func:`solve_on_arcs` from their located junctions):
     ``(solution, wall s, CPU s, mesh, arc_set)``, or None where there is no inner junction, a step is not solved, the
     steps do not converge or the arcs are not found to hold (module notes). ``tried``: the arc structures tried before
-    (quantity, value, inner start, inner end of each arc), each tried once; this one is added. A finer mesh can show an
+    (quantity, value, inner start, inner end of each arc), each tried once and :data:`TRIES` in all; this one is added. A finer mesh can show an
     arc the first did not (a rod whose torque sits on its bound for the first 0.5% of the horizon: no collocation point
     of the first mesh falls there)."""
     arcs, scale = find_arcs(solution)
     structure = tuple((a.quantity, a.value, a.start > 0.0, a.end < 1.0) for a in arcs)
-    if not inner_junctions(arcs, 1.0) or structure in tried:
+    if not inner_junctions(arcs, 1.0) or structure in tried or len(tried) >= TRIES:
         return None
     tried.add(structure)
     try:
