@@ -146,6 +146,21 @@ def test_a_push_leaving_its_bound_inside_an_interval_is_judged_by_a_companion_th
         assert mr["met"] or tol < 1e-4, mr["message"]
 
 
+def _torque_limited_rod(m, length, t_final, theta, tau_max, coordinates="auto") -> OptimalControlProblem:
+    """A rod (mass m, length) on a hinge at its end, no gravity, turned rest to rest through theta in t_final by a motor
+    of at most tau_max, least int tau^2 (examples/torque_limited_rod.py with other numbers)."""
+    model = Model("torque_limited_rod", gravity=(0.0, 0.0, 0.0))
+    rod = model.add_body("rod", m, m * length**2 / 12 * np.diag([1.0, 0.0, 1.0]), rotation="321")
+    joints.revolute(model, "hinge", rod.point("A", [0.0, length / 2, 0.0]), axis=(0, 0, 1))
+    model.add_torque("motor", rod, ca.vertcat(0, 0, model.add_input("motor")))
+    problem = OptimalControlProblem(model, t_final=t_final, coordinates=coordinates)
+    problem.initial({"rod.psi": 0.0, "rod.psi_dot": 0.0})
+    problem.final({"rod.psi": theta, "rod.psi_dot": 0.0})
+    problem.bound("motor", -tau_max, tau_max)
+    problem.minimize_effort(["motor"])
+    return problem
+
+
 @pytest.mark.parametrize("coordinates", ["auto", "maximal"])
 def test_a_torque_leaving_its_bound_leaves_the_states_estimate_within_ten_times_their_true_error(coordinates):
     """A rod turned rest to rest by a motor of at most TAU_MAX (no gravity, least int tau^2): Pontryagin's torque is
@@ -159,15 +174,7 @@ def test_a_torque_leaving_its_bound_leaves_the_states_estimate_within_ten_times_
 
     m, length, t_final, theta, tau_max = 0.8, 0.6, 0.8, 1.2, 0.9
     inertia = m * length**2 / 3
-    model = Model("torque_limited_rod", gravity=(0.0, 0.0, 0.0))
-    rod = model.add_body("rod", m, m * length**2 / 12 * np.diag([1.0, 0.0, 1.0]), rotation="321")
-    joints.revolute(model, "hinge", rod.point("A", [0.0, length / 2, 0.0]), axis=(0, 0, 1))
-    model.add_torque("motor", rod, ca.vertcat(0, 0, model.add_input("motor")))
-    problem = OptimalControlProblem(model, t_final=t_final, coordinates=coordinates)
-    problem.initial({"rod.psi": 0.0, "rod.psi_dot": 0.0})
-    problem.final({"rod.psi": theta, "rod.psi_dot": 0.0})
-    problem.bound("motor", -tau_max, tau_max)
-    problem.minimize_effort(["motor"])
+    problem = _torque_limited_rod(m, length, t_final, theta, tau_max, coordinates)
     sol = solve_to_tolerance(problem, 1e-4, None)
     record = sol.mesh_refinement
     assert record["met"], record["message"]
@@ -235,15 +242,7 @@ def test_short_arcs_at_the_ends_are_imposed_and_meet_1e_6_against_the_closed_for
 
     m, length, t_final, theta, tau_max = 0.8, 0.6, 0.8, 1.2, 1.0
     inertia = m * length**2 / 3
-    model = Model("torque_limited_rod", gravity=(0.0, 0.0, 0.0))
-    rod = model.add_body("rod", m, m * length**2 / 12 * np.diag([1.0, 0.0, 1.0]), rotation="321")
-    joints.revolute(model, "hinge", rod.point("A", [0.0, length / 2, 0.0]), axis=(0, 0, 1))
-    model.add_torque("motor", rod, ca.vertcat(0, 0, model.add_input("motor")))
-    problem = OptimalControlProblem(model, t_final=t_final)
-    problem.initial({"rod.psi": 0.0, "rod.psi_dot": 0.0})
-    problem.final({"rod.psi": theta, "rod.psi_dot": 0.0})
-    problem.bound("motor", -tau_max, tau_max)
-    problem.minimize_effort(["motor"])
+    problem = _torque_limited_rod(m, length, t_final, theta, tau_max)
     sol = problem.solve(tolerance=1e-6)
     record = sol.mesh_refinement
     assert record["met"], record["message"]
