@@ -43,10 +43,9 @@ class Arc:
     path: bool = False
 
 
-def _times(tr) -> tuple[np.ndarray, np.ndarray, float]:
-    """The points and mesh points, and the horizon, in fractions of the horizon: arcs are held in fractions, so that a
-    free final time stretches them with the mesh."""
-    return tr.fractions, tr.scheme.mesh_fractions, 1.0
+# Arcs, junctions and meshes are in fractions of the horizon (``tr.fractions``), so that a free final time stretches
+# them with the mesh; EPS: two fractions closer than this are one.
+EPS = 1e-9
 
 
 def _input_columns(tr, name: str) -> np.ndarray:
@@ -105,40 +104,43 @@ def _indices(tr, arc: Arc) -> np.ndarray:
     return path_rows(tr, arc.quantity) if arc.path else _input_columns(tr, arc.quantity)
 
 
-def inner_junctions(arcs: list[Arc], T: float) -> list[tuple[int, str, float]]:
-    """``(arc, "start" | "end", time)`` of every inner junction."""
-    eps = 1e-9 * T
+def inner_junctions(arcs: list[Arc]) -> list[tuple[int, str, float]]:
+    """``(arc, "start" | "end", fraction)`` of every inner junction."""
     return [(k, side, at) for k, a in enumerate(arcs) for side, at in (("start", a.start), ("end", a.end))
-            if eps < at < T - eps]
+            if EPS < at < 1.0 - EPS]
 
 
-def _free_interval(t: np.ndarray, mesh: np.ndarray, at: float, side: str, T: float) -> np.ndarray:
+def _free_interval(tr, at: float, side: str) -> np.ndarray:
     """The points of the free interval next to a junction at mesh point ``at``: before an arc's start (up to ``at``,
     which Radau's interval ends on), after an arc's end (``at`` not included)."""
-    eps = 1e-9 * T
+    t, mesh = tr.fractions, tr.scheme.mesh_fractions
     k = int(np.argmin(np.abs(mesh - at)))
     if side == "start":
-        return (t > mesh[max(k - 1, 0)] + eps) & (t <= at + eps)
-    return (t > at + eps) & (t <= mesh[min(k + 1, len(mesh) - 1)] + eps)
+        return np.flatnonzero((t > mesh[max(k - 1, 0)] + EPS) & (t <= at + EPS))
+    return np.flatnonzero((t > at + EPS) & (t <= mesh[min(k + 1, len(mesh) - 1)] + EPS))
+
+
+def pinned_points(tr, arcs: list[Arc]) -> tuple[list[np.ndarray], list[np.ndarray]]:
+    """The points each arc fixes (after its start: at an inner start the point is the free interval's last, whose value
+    is the mismatch; ``t = 0`` left to Radau's extrapolation), and those whose bound each inner junction drops (the free
+    interval next to it; each junction a mesh point)."""
+    t = tr.fractions
+    fixed = [np.flatnonzero((t > max(a.start, 0.0) + EPS) & (t <= a.end + EPS)) for a in arcs]
+    return fixed, [_free_interval(tr, at, side) for _, side, at in inner_junctions(arcs)]
 
 
 def pinned(tr, arcs: list[Arc]) -> tuple[list[np.ndarray], list[np.ndarray]]:
-    """The indices (decision variables for an input, NLP rows for a path constraint) each arc fixes (its points after
-    its start: at an inner start the point is the free interval's last, whose value is the mismatch; ``t = 0`` left to
-    Radau's extrapolation), and those whose bound each inner junction drops (the free interval next to it; each
-    junction a mesh point)."""
-    t, mesh, T = _times(tr)
-    eps = 1e-9 * T
-    fixed = [_indices(tr, a)[(t > max(a.start, 0.0) + eps) & (t <= a.end + eps)] for a in arcs]
-    freed = [_indices(tr, arcs[k])[_free_interval(t, mesh, at, side, T)] for k, side, at in inner_junctions(arcs, T)]
-    return fixed, freed
+    """:func:`pinned_points` as indices: decision variables for an input, NLP rows for a path constraint."""
+    fixed, freed = pinned_points(tr, arcs)
+    return ([_indices(tr, a)[i] for a, i in zip(arcs, fixed)],
+            [_indices(tr, arcs[k])[i] for (k, _, _), i in zip(inner_junctions(arcs), freed)])
 
 
 def pin_arcs(tr, arcs: list[Arc], lbx: np.ndarray, ubx: np.ndarray, lbg: np.ndarray, ubg: np.ndarray) -> None:
     """Impose ``arcs`` on a transcription's variable and row bounds, in place (:func:`pinned`; a path row holds its
     constraint over :func:`.transcription_elements.path_scale`)."""
     fixed, freed = pinned(tr, arcs)
-    junctions = inner_junctions(arcs, _times(tr)[2])
+    junctions = inner_junctions(arcs)
     for a, idx in zip(arcs, fixed):
         lo, hi = (lbg, ubg) if a.path else (lbx, ubx)
         lo[idx] = hi[idx] = a.value / (_path_scale(tr, a.quantity) if a.path else 1.0)
@@ -152,19 +154,24 @@ def mismatch(solution, arcs: list[Arc], scale: dict[str, float]) -> np.ndarray:
     over the input's ``scale``: before a start, the free interval's last point (at the junction); after an end, the
     polynomial through the free interval's points, evaluated at the junction."""
     tr = solution.transcription
-    t, mesh, T = _times(tr)
+    t = tr.fractions
     out = []
-    for k, side, at in inner_junctions(arcs, T):
+    for k, side, at in inner_junctions(arcs):
         a = arcs[k]
-        u = path_values(solution)[a.quantity] if a.path else np.asarray(solution.sample(a.quantity), float).ravel()
-        free = _free_interval(t, mesh, at, side, T)
+        u = values_of(solution, a)
+        free = _free_interval(tr, at, side)
         if side == "start":
-            value = u[np.flatnonzero(free)[-1]]
+            value = u[free[-1]]
         else:
             ts, us = t[free] - at, u[free]
             value = float(np.polyval(np.polyfit(ts, us, len(ts) - 1), 0.0))
         out.append((value - a.value) / scale[a.quantity])
     return np.asarray(out, float)
+
+
+def values_of(solution, arc: Arc) -> np.ndarray:
+    """The arc's quantity at every point of ``solution``."""
+    return path_values(solution)[arc.quantity] if arc.path else np.asarray(solution.sample(arc.quantity), float).ravel()
 
 
 def path_values(solution) -> dict[str, np.ndarray]:
@@ -184,7 +191,7 @@ def find_arcs(solution) -> tuple[list[Arc], dict[str, float]]:
     tangentially: no root to find), nor a transcription whose path rows are elsewhere (the condensed one)."""
     tr = solution.transcription
     pr = getattr(tr, "user_problem", tr.problem)
-    t, _, T = _times(tr)
+    t = tr.fractions
     smooth, located, arcs, scale = None, None, [], {}
     for name, v, lo, hi, states_only, continuous in bounded_quantities(solution):
         if states_only or continuous:
@@ -204,9 +211,9 @@ def find_arcs(solution) -> tuple[list[Arc], dict[str, float]]:
         for i, j in zip(runs[::2], runs[1::2] - 1):
             if j == i or s[i] != s[j] or np.any(s[i : j + 1] != s[i]):
                 continue
-            at = [w.fraction * T for w in located if w.quantity == name]
+            at = [w.fraction for w in located if w.quantity == name]
             start = 0.0 if i <= 1 else _nearest(at, t[i - 1], t[i])
-            end = T if j == len(t) - 1 else _nearest(at, t[j], t[j + 1])
+            end = 1.0 if j == len(t) - 1 else _nearest(at, t[j], t[j + 1])
             arcs.append(Arc(name, float(lo if s[i] < 0 else hi), start, end, path))
             scale[name] = max([abs(b) for b in (lo, hi) if np.isfinite(b)] + [1e-12])
     return arcs, scale
@@ -218,13 +225,13 @@ def _nearest(located: list[float], a: float, b: float) -> float:
     return min(inside, key=lambda x: abs(x - 0.5 * (a + b))) if inside else 0.5 * (a + b)
 
 
-def with_junction_points(scheme: Radau, times: list[float], T: float = 1.0) -> Radau:
-    """``scheme`` with a mesh point at each junction time: the nearest mesh point moved there where it lies within a
+def with_junction_points(scheme: Radau, times: list[float]) -> Radau:
+    """``scheme`` with a mesh point at each junction (fractions of the horizon): the nearest mesh point moved there where it lies within a
     quarter of its shorter interval (not the ends), else the interval holding it split there (both pieces at its
     degree)."""
     mesh = list(scheme.mesh_fractions)
     degrees = list(np.asarray(scheme.degrees if scheme.degrees is not None else [scheme.degree] * scheme.intervals))
-    for at in sorted(x / T for x in times):
+    for at in sorted(times):
         k = int(np.argmin(np.abs(np.asarray(mesh) - at)))
         shorter = min(mesh[k] - mesh[k - 1] if k > 0 else np.inf, mesh[k + 1] - mesh[k] if k + 1 < len(mesh) else np.inf)
         if 0 < k < len(mesh) - 1 and abs(mesh[k] - at) <= 0.25 * shorter:

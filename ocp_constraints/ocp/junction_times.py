@@ -18,7 +18,8 @@ from dataclasses import dataclass, replace
 import numpy as np
 
 from ..errors import OCPSolveError
-from .imposed_arcs import find_arcs, inner_junctions, mismatch, path_rows, path_values, pinned, with_junction_points
+from .imposed_arcs import (find_arcs, inner_junctions, mismatch, pinned, pinned_points, values_of,
+                           with_junction_points)
 from .mesh_solves import timed_solve
 
 STEPS = 12          # secant steps at most (the sixth newcomer's tracking pendulum, 5 junctions from its first mesh: 10)
@@ -46,13 +47,12 @@ def _bounds(tr, arc) -> tuple[float, float]:
 def holds(solution, arcs, scale: dict, tol: float) -> bool:
     """Whether the imposed ``arcs`` are the optimum's (module notes)."""
     tr = solution.transcription
-    fixed, freed = pinned(tr, arcs)
-    values = {a.quantity: path_values(solution)[a.quantity] if a.path else np.asarray(solution.decision_vector, float)
-              for a in arcs}
-    for (k, _, _), idx in zip(inner_junctions(arcs, 1.0), freed):
+    freed_points = pinned_points(tr, arcs)[1]
+    fixed = pinned(tr, arcs)[0]
+    for (k, _, _), points in zip(inner_junctions(arcs), freed_points):
         a = arcs[k]
         lo, hi = _bounds(tr, a)
-        v = values[a.quantity][_positions(tr, a, idx)] if a.path else values[a.quantity][idx]
+        v = values_of(solution, a)[points]
         slack = GOAL * tol * scale[a.quantity]
         if np.any(v < lo - slack) or np.any(v > hi + slack):
             return False
@@ -65,12 +65,6 @@ def holds(solution, arcs, scale: dict, tol: float) -> bool:
         if pull[inner].size and pull[inner].max() > PULL * np.abs(lam).max():
             return False
     return True
-
-
-def _positions(tr, arc, rows: np.ndarray) -> np.ndarray:
-    """The points of a path constraint's ``rows``."""
-    point = {int(row): i for i, row in enumerate(path_rows(tr, arc.quantity))}
-    return np.asarray([point[int(row)] for row in rows], int)
 
 
 @dataclass(frozen=True)
@@ -89,16 +83,15 @@ def solve_on_arcs(problem, scheme, arc_set: ArcSet, tol: float, options: dict, w
     newcomer's pendulum under a torque bound at 1e-4: "met", its hinge force 1.2x the estimate, 6.5e-6 s off a
     junction). Returns ``(solution, wall s, CPU s, mesh, arc_set, converged)``; a step IPOPT does not solve raises
     its :class:`OCPSolveError`."""
-    T = 1.0     # arcs and meshes in fractions of the horizon
-    arcs, junctions = list(arc_set.arcs), inner_junctions(list(arc_set.arcs), T)
+    arcs, junctions = list(arc_set.arcs), inner_junctions(list(arc_set.arcs))   # in fractions of the horizon
     times = np.array([at for _, _, at in junctions])
-    mesh = scheme.mesh_fractions * T
+    mesh = scheme.mesh_fractions
     step = FIRST_STEP * np.array([np.diff(mesh)[min(max(np.searchsorted(mesh, at) - 1, 0), len(mesh) - 2)] for at in times])
     before, wall, cpu = None, 0.0, 0.0
     for _ in range(STEPS):
         for (k, side, _), at in zip(junctions, times):
             arcs[k] = replace(arcs[k], **{side: float(at)})
-        trial = with_junction_points(scheme, list(times), T)
+        trial = with_junction_points(scheme, list(times))
         sol, w, c = timed_solve(problem, trial, options, warm, progress, first, fallback, scale_objective, arcs=arcs)
         wall, cpu = wall + w, cpu + c
         g = mismatch(sol, arcs, arc_set.scale)
@@ -116,7 +109,7 @@ def solve_on_arcs(problem, scheme, arc_set: ArcSet, tol: float, options: dict, w
         before, warm = (times, g), sol
         if not np.all(np.isfinite(new)):
             break
-        times = np.clip(new, 1e-6 * T, T * (1 - 1e-6))
+        times = np.clip(new, 1e-6, 1.0 - 1e-6)
     return sol, wall, cpu, trial, ArcSet(tuple(arcs), arc_set.scale), False
 
 
@@ -130,7 +123,7 @@ def align_junctions(problem, scheme, solution, tol: float, options: dict, progre
     of the first mesh falls there)."""
     arcs, scale = find_arcs(solution)
     structure = tuple((a.quantity, a.value, a.start > 0.0, a.end < 1.0) for a in arcs)
-    if not inner_junctions(arcs, 1.0) or structure in tried or len(tried) >= TRIES:
+    if not inner_junctions(arcs) or structure in tried or len(tried) >= TRIES:
         return None
     tried.add(structure)
     try:

@@ -171,8 +171,8 @@ def timed_solve(problem, scheme: Radau, ipopt_options: dict, warm_start, progres
     """Build and solve one mesh; ``first``: an earlier transcription of the same problem. ``fallback``: IPOPT
     options to solve it again with where the warm solve (``warm_start`` given) fails (from the same start) or
     ends at the acceptable level (from the problem's own guess; module notes). ``scale_objective``: the warm
-    solves (and the retry from the same start) scale the objective (:mod:`.objective_scaling`). ``arcs``: input arcs
-    imposed on the bounds (:mod:`.imposed_arcs`). Returns the solution, wall and CPU seconds."""
+    solves (and the retry from the same start) scale the objective (:mod:`.objective_scaling`). ``arcs``: arcs (an
+    input's or a path constraint's) imposed on the bounds (:mod:`.imposed_arcs`). Returns the solution, wall and CPU seconds."""
     started, cpu = time.perf_counter(), time.process_time()
     tr = build_mesh(problem, scheme, first)
     tr.arcs = tuple(arcs)
