@@ -12,6 +12,7 @@ import pytest
 import ocp_constraints as oc
 from ocp_constraints.ocp.arc_floor import arc_floor
 from ocp_constraints.ocp.switch_detection import detect_switches
+from test_refinement_state_arcs import pendulum_on_a_stop
 
 WALL = 1 / 9
 EXAMPLE = Path(__file__).parent.parent / "examples" / "bryson_denham.py"
@@ -40,6 +41,7 @@ def _true_errors(sol, t: np.ndarray) -> float:
 
 
 def test_the_floor_on_a_located_arc_is_the_solutions_own_error_at_its_points(monkeypatch):
+    # A fixed mesh: no arc imposed, the wall an inequality (where a refinement cannot impose an arc, this floor holds).
     """On each interval wholly on the wall (the junctions located), the floor is the largest of the block's gap from
     the wall and its speed at the interval's points, which is its error there against the closed form; off the arc,
     and on the intervals the junctions lie in, nothing."""
@@ -60,14 +62,19 @@ def test_the_floor_on_a_located_arc_is_the_solutions_own_error_at_its_points(mon
             assert floor[k] == 0.0
 
 
-def test_bryson_denham_at_1e_6_is_met_with_its_true_error_under_the_estimate(monkeypatch):
+def test_bryson_denham_at_1e_6_imposes_the_wall_and_is_exact(monkeypatch):
     """At 1e-6 the block's speed on the wall, 8.7e-8 (IPOPT's gap from the wall varying along it), was 1.40x the
-    estimate, since the companion had the same gap; with the arc's floor the estimate covers it, within [0.1, 1]."""
+    estimate, since the companion had the same gap; the arc's floor then covered it. Now the arc is imposed
+    (ocp/imposed_arcs.py): the block at the wall on its points, its junctions at the roots of the push's jump, which
+    are Bryson and Ho's 1/3 and 2/3. The closed form is cubic off the wall, so each interval's polynomial is exact."""
     sol = _bryson_denham(monkeypatch).solve(tolerance=1e-6)
     record = sol.mesh_refinement
     true = _true_errors(sol, np.linspace(0.0, 1.0, 2001))
     assert record["met"]
-    assert 0.1 * record["estimate"]["states"] <= true <= record["estimate"]["states"]
+    [arc] = record["input_arcs"]
+    assert arc["quantity"] == "block.x" and arc["state"] and arc["via"] == "u"
+    assert arc["start"] == pytest.approx(1 / 3, abs=1e-9) and arc["end"] == pytest.approx(2 / 3, abs=1e-9)
+    assert true <= record["estimate"]["states"] and true < 1e-12
 
 
 def test_a_not_met_message_names_the_arc_whose_floor_holds_the_estimate(monkeypatch):
@@ -91,23 +98,6 @@ def test_a_not_met_message_names_the_arc_whose_floor_holds_the_estimate(monkeypa
     assert est.arc_note(0.5 * held) == ""
 
 
-def _pendulum_on_a_stop() -> oc.OptimalControlProblem:
-    """The eighth newcomer's pendulum (scripts/refinement_newcomer8): a 1 kg, 1 m rod on a hinge at its end, from rest
-    at psi = 1.0 to rest at 0.8 rad in 2 s, psi >= 0.5: it swings onto the stop, rides it, and is lifted off."""
-    import casadi as ca
-
-    model = oc.Model("stop_pendulum", gravity=(0.0, -9.81, 0.0))
-    rod = model.add_body("rod", 1.0, 1.0 / 12 * np.diag([1.0, 0.0, 1.0]), rotation="321")
-    oc.joints.revolute(model, "hinge", rod.point("A", [0.0, 0.5, 0.0]), axis=(0, 0, 1))
-    model.add_torque("motor", rod, ca.vertcat(0, 0, model.add_input("motor")))
-    pr = oc.OptimalControlProblem(model, t_final=2.0)
-    pr.initial({"rod.psi": 1.0, "rod.omega_z": 0.0})
-    pr.final({"rod.psi": 0.8, "rod.omega_z": 0.0})
-    pr.bound("rod.psi", lower=0.5)
-    pr.minimize_effort(["motor"])
-    return pr
-
-
 def test_a_state_bounds_junction_put_at_a_mesh_point_floors_the_hinge_forces_estimate():
     """At a stop's entry and exit the hinge force kinks. A junction put at a mesh point may lie anywhere in the half gap
     to the interval's first collocation point, and the interval's polynomial misses the kink by up to the slope
@@ -116,7 +106,7 @@ def test_a_state_bounds_junction_put_at_a_mesh_point_floors_the_hinge_forces_est
     results/bench/refinement_newcomer8.md, follow-up)."""
     from ocp_constraints.ocp.error_estimate import estimate_error
 
-    problem = _pendulum_on_a_stop()
+    problem = pendulum_on_a_stop()
     # Mesh points every 0.125 s and at 0.69375 s, near the entry (0.693752 s) and exit (1.375181 s) of the stop.
     mesh = tuple(sorted([*np.linspace(0.0, 1.0, 17), 0.346875]))
     sol = problem.solve(oc.Radau(mesh=mesh, degrees=(5,) * 17))

@@ -294,7 +294,7 @@ def estimate_error(solution, companion, safety: float = SAFETY, windows=(), swit
     kink's own size (:func:`_kink_floor`); on a located arc of a state bound or a path constraint of the states the
     states' is at least ``safety`` times the solution's own error there (:func:`.arc_floor.arc_floor`: its gap from
     the bound and its rate, which the companion shares)."""
-    fractions, owner = sample_grid(solution.transcription)
+    fractions, owner = _with_junctions(sample_grid(solution.transcription), solution, companion)
     ours, theirs = values_at(solution, fractions), values_at(companion, fractions)
     est = compare(ours, theirs, fractions, owner, solution.transcription.scheme.intervals, names(solution), windows)
     est.objective_change, est.state_change = resolution(solution, companion, ours["states"], theirs["states"])
@@ -318,6 +318,24 @@ def estimate_error(solution, companion, safety: float = SAFETY, windows=(), swit
         est.totals["t_final"] = safety * abs(solution.t_final - companion.t_final)
     est.totals = {q: max(v, floor) for q, v in est.totals.items()}
     return est
+
+
+def _with_junctions(grid: tuple[np.ndarray, np.ndarray], solution, companion) -> tuple[np.ndarray, np.ndarray]:
+    """The sample grid with the companion's imposed junctions (:mod:`.imposed_arcs`, each at its own root) added: where
+    the solution's junction is off by ``d``, its loads differ from the companion's by their slope change times ``d``
+    only between the two junctions, which no sample of the solution's mesh falls in (an eighth newcomer's pendulum on
+    a stop at 1e-6: its entry 1.05e-7 s late, the companion's 3e-10 s off, the hinge force's true error 1.08x the
+    estimate before this, ``scripts/refinement_newcomer8``)."""
+    fractions, owner = grid
+    arcs = getattr(companion.transcription, "arcs", ())
+    extra = np.array([x for a in arcs for x in (a.start, a.end) if 0.0 < x < 1.0])
+    if not extra.size:
+        return fractions, owner
+    mesh = solution.transcription.scheme.mesh_fractions
+    at = np.clip(np.searchsorted(mesh, extra, side="right") - 1, 0, len(mesh) - 2)
+    fractions, owner = np.concatenate([fractions, extra]), np.concatenate([owner, at])
+    order = np.lexsort((fractions, owner))          # by interval, then time (made_here reads each interval's run)
+    return fractions[order], owner[order]
 
 
 # A degree-p polynomial misses a kink |x| on [-1, 1] by about 0.28 / p at best (Bernstein); a kink of slope change
@@ -351,8 +369,9 @@ def _kink_floor(solution, est, switches) -> None:
     interval's smoothness is judged as before, :func:`floored_kinks`): inside an interval as above, and where it was
     put at a mesh point by the half gap to the interval's first collocation point, where it may lie (an eighth
     newcomer's pendulum riding a stop, at 1e-3: the hinge force's true error 1.25x the estimate at the stop's exit,
-    1.8e-4 s past the mesh point it was put at; scripts/refinement_newcomer8/, results/bench/refinement_newcomer8.md)."""
-    kinks = floored_kinks(switches) + [w for w in switches if w.kind == "junction" and w.source == "state"]
+    1.8e-4 s past the mesh point it was put at; scripts/refinement_newcomer8/, results/bench/refinement_newcomer8.md),
+    unless its arc is imposed (:mod:`.imposed_arcs`: the junction is that mesh point, placed by its input's continuity)."""
+    kinks = floored_kinks(switches) + [w for w in switches if w.kind == "junction" and w.source == "state" and not w.imposed]
     if not kinks:
         return
     tr = solution.transcription

@@ -16,13 +16,25 @@ path constraint's row), its bound dropped over the free interval next to each ju
 mesh point, and its time is the root of the quantity's continuity mismatch there (:func:`mismatch`): the free side's
 polynomial at the junction less the bound (:mod:`.junction_times`). On the rod at 1e-6 the junctions end 7.6e-12 s
 from the closed form's and the torque 2.5e-11 of its bound from it, on 51 points
-(``python scripts/junction_at_mesh_point.py``). State bounds are not imposed: reached tangentially, their mismatch
-has no simple root.
+(``python scripts/junction_at_mesh_point.py``).
+
+A bound on a coordinate or a speed (a pendulum lowered onto a stop, Bryson and Denham's wall, a speed limit) is imposed
+too (``state``): the state at its bound on the arc's points, its junctions' points included (a state is continuous), its
+bound dropped over the free interval next to each junction. A state reaches its bound tangentially, so its own
+mismatch has no simple root; but an input with an effort term is continuous at such a junction (its Hamiltonian is
+strictly convex in it; Jacobson, Lele and Speyer 1971, for constraints of order one and two), and its jump there, the
+free side's value less the arc's (``via``, the input that kinks most there), is the root: Bryson-Denham's
+``2 (t1 - 3 l) / t1^2`` for an entry at ``t1`` (the free arc's cubic through the wall's point with zero speed).
+With the bound an inequality the same barrier and kink as an input's kept the multipliers about 1e-5 off: an eighth
+newcomer's pendulum "met" 1e-5 with its hinge force 2.9x the estimate, entering the stop 3.3e-5 s late
+(``scripts/refinement_newcomer8``). Only arcs with both junctions inside the horizon: an arc from ``t0`` or to the end
+meets the boundary values there.
 """
 from __future__ import annotations
 
 from dataclasses import dataclass
 
+import casadi as ca
 import numpy as np
 
 from .schemes import Radau
@@ -33,14 +45,17 @@ from .transcription_elements import path_scale
 @dataclass(frozen=True)
 class Arc:
     """``quantity`` held at ``value`` (one of its bounds) from ``start`` to ``end`` (fractions of the horizon): an input,
-    or with ``path`` a path constraint (its label); a start at 0 or an end at 1 is no junction (the arc runs from the
-    start or to the end)."""
+    with ``path`` a path constraint (its label), with ``state`` a coordinate or speed, whose junctions are placed by the
+    continuity of input ``via``; a start at 0 or an end at 1 is no junction (the arc runs from the start or to the
+    end)."""
 
     quantity: str
     value: float
     start: float
     end: float
     path: bool = False
+    state: bool = False
+    via: str | None = None
 
 
 # Arcs, junctions and meshes are in fractions of the horizon (``tr.fractions``), so that a free final time stretches
@@ -96,12 +111,37 @@ def moves_with_inputs(solution, label: str, at: np.ndarray) -> bool:
     return False
 
 
-def _path_scale(tr, label: str) -> float:
-    return path_scale(next(c for c in tr.problem.path_constraints if c.label == label))
+def state_row(name: str) -> str:
+    """The label of the path row that holds a bound on state ``name`` in joint coordinates (.joint_transcription)."""
+    return f"bound on {name}"
+
+
+def rate_row(name: str) -> str:
+    """The label of the free path row of a bounded coordinate's rate in joint coordinates (.joint_transcription)."""
+    return f"rate of {name}"
+
+
+def on_rows(tr, arc: Arc) -> bool:
+    """Whether the arc is held by NLP rows (a path constraint; a state's bound in joint coordinates, where the bodies'
+    coordinates are expressions), else by decision variables (an input; a state in maximal coordinates)."""
+    return arc.path or (arc.state and any(c.label == state_row(arc.quantity) for c in tr.problem.path_constraints))
+
+
+def _row_label(arc: Arc) -> str:
+    return state_row(arc.quantity) if arc.state else arc.quantity
+
+
+def _path_scale(tr, arc: Arc) -> float:
+    return path_scale(next(c for c in tr.problem.path_constraints if c.label == _row_label(arc)))
 
 
 def _indices(tr, arc: Arc) -> np.ndarray:
-    return path_rows(tr, arc.quantity) if arc.path else _input_columns(tr, arc.quantity)
+    if on_rows(tr, arc):
+        return path_rows(tr, _row_label(arc))
+    if arc.state:
+        names = tr.problem.model.coordinate_names + tr.problem.model.speed_names
+        return names.index(arc.quantity) + np.arange(tr.layout.n_points) * tr.layout.nx
+    return _input_columns(tr, arc.quantity)
 
 
 def inner_junctions(arcs: list[Arc]) -> list[tuple[int, str, float]]:
@@ -121,12 +161,16 @@ def _free_interval(tr, at: float, side: str) -> np.ndarray:
 
 
 def pinned_points(tr, arcs: list[Arc]) -> tuple[list[np.ndarray], list[np.ndarray]]:
-    """The points each arc fixes (after its start: at an inner start the point is the free interval's last, whose value
-    is the mismatch; ``t = 0`` left to Radau's extrapolation), and those whose bound each inner junction drops (the free
-    interval next to it; each junction a mesh point)."""
+    """The points each arc fixes (an input's or path constraint's after its start: at an inner start the point is the
+    free interval's last, whose value is the mismatch; ``t = 0`` left to Radau's extrapolation; a state's from its start,
+    continuous there), and those whose bound each inner junction drops (the free interval next to it, a state's
+    junction point not; each junction a mesh point)."""
     t = tr.fractions
-    fixed = [np.flatnonzero((t > max(a.start, 0.0) + EPS) & (t <= a.end + EPS)) for a in arcs]
-    return fixed, [_free_interval(tr, at, side) for _, side, at in inner_junctions(arcs)]
+    fixed = [np.flatnonzero((t > a.start - EPS if a.state else t > max(a.start, 0.0) + EPS) & (t <= a.end + EPS))
+             for a in arcs]
+    freed = [_free_interval(tr, at, side) for _, side, at in inner_junctions(arcs)]
+    freed = [p[np.abs(t[p] - at) > EPS] if arcs[k].state else p for (k, _, at), p in zip(inner_junctions(arcs), freed)]
+    return fixed, freed
 
 
 def pinned(tr, arcs: list[Arc]) -> tuple[list[np.ndarray], list[np.ndarray]]:
@@ -142,31 +186,66 @@ def pin_arcs(tr, arcs: list[Arc], lbx: np.ndarray, ubx: np.ndarray, lbg: np.ndar
     fixed, freed = pinned(tr, arcs)
     junctions = inner_junctions(arcs)
     for a, idx in zip(arcs, fixed):
-        lo, hi = (lbg, ubg) if a.path else (lbx, ubx)
-        lo[idx] = hi[idx] = a.value / (_path_scale(tr, a.quantity) if a.path else 1.0)
+        lo, hi = (lbg, ubg) if on_rows(tr, a) else (lbx, ubx)
+        lo[idx] = hi[idx] = a.value / (_path_scale(tr, a) if on_rows(tr, a) else 1.0)
     for (k, _, _), idx in zip(junctions, freed):
-        lo, hi = (lbg, ubg) if arcs[k].path else (lbx, ubx)
+        lo, hi = (lbg, ubg) if on_rows(tr, arcs[k]) else (lbx, ubx)
         lo[idx], hi[idx] = -np.inf, np.inf
+    for a in arcs:
+        # A coordinate reaches its bound tangentially: its rate is zero at the entry too (the arc's own points have it
+        # from their constant polynomial; the entry's rate is the free interval's, which would otherwise arrive at speed
+        # and stop within the arc's first interval, its input's jump smeared there: no root).
+        rate = entry_rate(tr, a.quantity) if a.state else None
+        if rate is not None:
+            at = int(np.argmin(np.abs(tr.fractions - a.start)))
+            lo, hi = (lbg, ubg) if rate[0] == "rows" else (lbx, ubx)
+            lo[rate[1][at]] = hi[rate[1][at]] = 0.0
+
+
+def entry_rate(tr, name: str) -> tuple[str, np.ndarray] | None:
+    """Where coordinate ``name``'s rate is held at each point: ``("rows", NLP rows)`` (joint coordinates: its free row),
+    ``("columns", decision variables)`` (maximal coordinates, where it is one speed: a translation's), else None (a
+    speed's bound, or a maximal angle whose rate mixes speeds)."""
+    pr = tr.problem
+    if name not in pr.model.coordinate_names:
+        return None
+    if any(c.label == state_row(name) for c in pr.path_constraints):
+        rows = path_rows(tr, rate_row(name))
+        return None if rows is None else ("rows", rows)
+    e = pr.eqs
+    N = ca.jacobian(e.qdot[pr.model.coordinate_names.index(name)], e.u)
+    if not N.is_constant() or N.nnz() != 1 or float(ca.DM(N)[0, N.sparsity().get_col()[0]]) != 1.0:
+        return None
+    j = N.sparsity().get_col()[0]
+    return "columns", e.nq + j + np.arange(tr.layout.n_points) * tr.layout.nx
 
 
 def mismatch(solution, arcs: list[Arc], scale: dict[str, float]) -> np.ndarray:
     """Per inner junction (:func:`inner_junctions`' order): the free side's input at the junction less the arc's value,
     over the input's ``scale``: before a start, the free interval's last point (at the junction); after an end, the
-    polynomial through the free interval's points, evaluated at the junction."""
+    polynomial through the free interval's points, evaluated at the junction. A state's arc: input ``via``'s jump
+    there, the free side's value less the arc side's (the point at the junction is the side before it; the other
+    side's polynomial through the interval after it, evaluated at the junction)."""
     tr = solution.transcription
     t = tr.fractions
     out = []
     for k, side, at in inner_junctions(arcs):
         a = arcs[k]
+        after = _free_interval(tr, at, "end")     # the interval after the junction: the free side's after an end
+        if a.state:
+            u = np.asarray(solution.sample(a.via), float).ravel()
+            here, beyond = u[int(np.argmin(np.abs(t - at)))], _extrapolated(t[after] - at, u[after])
+            out.append((here - beyond if side == "start" else beyond - here) / scale[a.via])
+            continue
         u = values_of(solution, a)
-        free = _free_interval(tr, at, side)
-        if side == "start":
-            value = u[free[-1]]
-        else:
-            ts, us = t[free] - at, u[free]
-            value = float(np.polyval(np.polyfit(ts, us, len(ts) - 1), 0.0))
+        value = u[_free_interval(tr, at, side)[-1]] if side == "start" else _extrapolated(t[after] - at, u[after])
         out.append((value - a.value) / scale[a.quantity])
     return np.asarray(out, float)
+
+
+def _extrapolated(ts: np.ndarray, values: np.ndarray) -> float:
+    """The polynomial through ``(ts, values)`` at 0."""
+    return float(np.polyval(np.polyfit(ts, values, len(ts) - 1), 0.0))
 
 
 def values_of(solution, arc: Arc) -> np.ndarray:
@@ -185,16 +264,17 @@ def path_values(solution) -> dict[str, np.ndarray]:
 def find_arcs(solution) -> tuple[list[Arc], dict[str, float]]:
     """The arcs on which a quantity that leaves its bound continuously sits at a bound, at two points or more, their ends
     at the located junctions (:func:`.switch_detection.detect_switches`); and each such quantity's scale (its bounds'
-    largest magnitude). Such a quantity is an input with an effort term (:func:`.switch_detection.penalized_inputs`), or a
-    path constraint of the inputs or multipliers where every input has one (the inputs follow the costates
-    continuously, so does the constraint); not a path constraint of the states alone, nor a state's bound (reached
-    tangentially: no root to find), nor a transcription whose path rows are elsewhere (the condensed one)."""
+    largest magnitude; an input's that places a state's junctions, its bounds' or its largest value). Such a quantity is
+    an input with an effort term (:func:`.switch_detection.penalized_inputs`), or where every input has one, a path
+    constraint of the inputs or multipliers (the inputs follow the costates continuously, so does the constraint) or a
+    coordinate's or speed's bound over an arc inside the horizon (module notes); not a path constraint of the states
+    alone, nor a transcription whose path rows are elsewhere (the condensed one)."""
     tr = solution.transcription
     pr = getattr(tr, "user_problem", tr.problem)
     t = tr.fractions
     smooth, located, arcs, scale = None, None, [], {}
-    for name, v, lo, hi, states_only, continuous in bounded_quantities(solution):
-        if states_only or continuous:
+    for name, v, lo, hi, state, continuous in bounded_quantities(solution):
+        if continuous and not state:
             continue
         s, _ = activity(v, lo, hi)
         s[0] = 0                                    # t = 0: Radau's extrapolated input, the multipliers' acceleration level
@@ -203,20 +283,59 @@ def find_arcs(solution) -> tuple[list[Arc], dict[str, float]]:
         if smooth is None:      # only where a quantity reaches a bound (the curvature at every point: ~1 ms)
             smooth = penalized_inputs(solution)
             located = [w for w in detect_switches(solution) if w.kind == "junction"]
-        path = name not in pr.model.inputs
-        if (name not in smooth) if not path else (set(smooth) != set(pr.model.inputs) or path_rows(tr, name) is None
-                                                  or not moves_with_inputs(solution, name, np.flatnonzero(s)[:3])):
+        path = not state and name not in pr.model.inputs
+        every_input = bool(smooth) and set(smooth) == set(pr.model.inputs)
+        if state:
+            # A coordinate's arc needs its rate held at the entry (entry_rate); a speed's is held by its own bound.
+            on_path_rows = any(c.label == state_row(name) for c in tr.problem.path_constraints)
+            if not every_input or (on_path_rows and path_rows(tr, state_row(name)) is None) or (
+                    name in pr.model.coordinate_names and entry_rate(tr, name) is None):
+                continue
+        elif (name not in smooth) if not path else (not every_input or path_rows(tr, name) is None
+                                                     or not moves_with_inputs(solution, name, np.flatnonzero(s)[:3])):
             continue
         runs = np.flatnonzero(np.diff(np.concatenate([[0], (s != 0).astype(int), [0]])))
         for i, j in zip(runs[::2], runs[1::2] - 1):
             if j == i or s[i] != s[j] or np.any(s[i : j + 1] != s[i]):
                 continue
             at = [w.fraction for w in located if w.quantity == name]
+            if state:
+                # Reached tangentially, a state looks active before its junction (within ACTIVE of its scale): the
+                # junctions located over the run, its first and last.
+                inside = [x for x in at if t[i - 1] <= x <= t[min(j + 1, len(t) - 1)]]
+                if i <= 1 or j == len(t) - 1 or len(inside) < 2:
+                    continue
+                via = _kinking_input(solution, sorted(smooth), inside[0])
+                arcs.append(Arc(name, float(lo if s[i] < 0 else hi), min(inside), max(inside), state=True, via=via))
+                scale[name] = max([abs(b) for b in (lo, hi) if np.isfinite(b)] + [1e-12])
+                scale[via] = _input_scale(solution, pr, via)
+                continue
             start = 0.0 if i <= 1 else _nearest(at, t[i - 1], t[i])
             end = 1.0 if j == len(t) - 1 else _nearest(at, t[j], t[j + 1])
             arcs.append(Arc(name, float(lo if s[i] < 0 else hi), start, end, path))
             scale[name] = max([abs(b) for b in (lo, hi) if np.isfinite(b)] + [1e-12])
     return arcs, scale
+
+
+def _input_scale(solution, pr, name: str) -> float:
+    """An input's bounds' largest magnitude, else its largest value on ``solution``."""
+    bounds = [abs(b) for b in pr.bounds.get(name, ()) if np.isfinite(b)]
+    return max(bounds or [float(np.abs(np.asarray(solution.sample(name), float)).max())] + [1e-12])
+
+
+def _kinking_input(solution, inputs: list[str], at: float) -> str:
+    """Of ``inputs``, the one whose slope changes most (relative to its scale) across a junction at fraction ``at``: the
+    input the bound acts on, whose jump places the junction best (a steep root)."""
+    t, tr = solution.t, solution.transcription
+    pr = getattr(tr, "user_problem", tr.problem)
+    before, after = np.flatnonzero(tr.fractions < at)[-2:], np.flatnonzero(tr.fractions > at)[:2]
+    if len(inputs) == 1 or len(before) < 2 or len(after) < 2:
+        return inputs[0]
+
+    def kink(name):
+        u = np.asarray(solution.sample(name), float).ravel() / _input_scale(solution, pr, name)
+        return abs((u[after[1]] - u[after[0]]) / (t[after[1]] - t[after[0]]) - (u[before[1]] - u[before[0]]) / (t[before[1]] - t[before[0]]))
+    return max(inputs, key=kink)
 
 
 def _nearest(located: list[float], a: float, b: float) -> float:

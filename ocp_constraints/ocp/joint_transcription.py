@@ -49,6 +49,12 @@ class ReducedProblem:
         for n, (lo, hi) in self.state_bounds.items():
             self.path_constraints.append(SimpleNamespace(label=f"bound on {n}", expression=self.translate(problem.quantity(n)),
                                                          lower=lo, upper=hi, scale=1.0))
+        # A bounded coordinate's rate, a free row: where a refinement imposes an arc on the bound it is held at zero at
+        # the arc's entry, which the coordinate reaches tangentially (.imposed_arcs).
+        for n in self.state_bounds:
+            if n in problem.model.coordinate_names:
+                self.path_constraints.append(SimpleNamespace(label=f"rate of {n}", scale=1.0, lower=-np.inf, upper=np.inf,
+                                                             expression=self.translate(problem.quantity(f"{n}_dot"))))
 
     def __getattr__(self, name):
         return getattr(self.original, name)

@@ -18,7 +18,7 @@ from dataclasses import dataclass, replace
 import numpy as np
 
 from ..errors import OCPSolveError
-from .imposed_arcs import (find_arcs, inner_junctions, mismatch, pinned, pinned_points, values_of,
+from .imposed_arcs import (find_arcs, inner_junctions, mismatch, on_rows, pinned, pinned_points, values_of,
                            with_junction_points)
 from .mesh_solves import timed_solve
 
@@ -37,7 +37,7 @@ def described(arcs, t_final: float) -> list[dict]:
 
 
 def _bounds(tr, arc) -> tuple[float, float]:
-    """The lower and upper bound of an arc's quantity (an input's, or a path constraint's)."""
+    """The lower and upper bound of an arc's quantity (an input's or a state's, or a path constraint's)."""
     if arc.path:
         c = next(c for c in tr.problem.path_constraints if c.label == arc.quantity)
         return c.lower, c.upper
@@ -57,7 +57,7 @@ def holds(solution, arcs, scale: dict, tol: float) -> bool:
         if np.any(v < lo - slack) or np.any(v > hi + slack):
             return False
     for a, idx in zip(arcs, fixed):
-        lam = (solution.row_multipliers if a.path else solution.bound_multipliers)[idx]
+        lam = (solution.row_multipliers if on_rows(tr, a) else solution.bound_multipliers)[idx]
         pull = -lam if a.value == _bounds(tr, a)[1] else lam
         # Not the points at an inner junction: the multiplier falls to zero there, and its sign is noise (a rod whose
         # arc of 0.033 s ended at -1.8e-6 of its arc's largest 1.2e-3, and its arcs were dropped).

@@ -73,7 +73,8 @@ class Switch:
     two points around it whose activity differs (fractions); ``effect``: how far the speeds (m/s, rad/s;
     the NLP's) are from those of a clean switch at ``fraction``, over the bracket (:func:`_effect`): the
     NLP smears a jump over the points of its bracket (their bounds held loosely), and a jump that is no
-    mesh point sits at the nearest one."""
+    mesh point sits at the nearest one. ``imposed``: a junction of an arc imposed on the NLP (:mod:`.imposed_arcs`), at
+    its mesh point by construction."""
 
     fraction: float
     interval: int
@@ -83,6 +84,7 @@ class Switch:
     bracket: tuple[float, float] = (0.0, 0.0)
     effect: float = 0.0
     source: str = "path"
+    imposed: bool = False
 
 
 def bounded_quantities(solution) -> list[tuple[str, np.ndarray, float, float, bool, bool]]:
@@ -212,7 +214,7 @@ def _on_arcs(found: list[Switch], solution) -> list[Switch]:
         if w.kind == "junction" and ends.get(w.quantity):
             at = min(ends[w.quantity], key=lambda x: abs(x - w.fraction))
             k = int(np.clip(np.searchsorted(mesh, at * (1 + 1e-12), side="right") - 1, 0, len(mesh) - 2))
-            w = replace(w, fraction=at, interval=k, inside=False, effect=0.0)
+            w = replace(w, fraction=at, interval=k, inside=False, effect=0.0, imposed=True)
         out.append(w)
     return out
 

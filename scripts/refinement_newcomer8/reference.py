@@ -38,7 +38,9 @@ class Phases:
                     out[:, j] *= (x - tau[r]) / (tau[j] - tau[r])
         return out
 
-    def solve(self, warm=None, fix_t1=None):
+    def solve(self, warm=None, fix_t1=None, continuity=False):
+        """continuity: the input continuous at both junctions (a necessary condition where the integrand is strictly
+        convex in it, Jacobson, Lele and Speyer 1971), which fixes the junction times where J is flat in them."""
         sp, N, s = self.spec, self.N, self.s
         nx, nu, T = sp["nx"], sp["nu"], sp["T"]
         opti = ca.Opti()
@@ -83,6 +85,12 @@ class Phases:
         opti.subject_to(sp["entry"](xe) == 0)
         x2, cmid = sp["middle"](xe, t2 - t1)
         opti.subject_to(X[1][:, 0] == x2)
+        if continuity:
+            hold = ca.vertcat(*sp["u_arc"](xe))
+            opti.subject_to(U[0][:, -1] == hold)         # the last Radau point of the first free arc is t1
+            tr = self.tau[1:]
+            w = [np.prod([(0.0 - tr[r]) / (tr[j] - tr[r]) for r in range(s) if r != j]) for j in range(s)]
+            opti.subject_to(sum(w[j] * U[1][:, j] for j in range(s)) == hold)   # the second's polynomial at t2
         J = J + cmid
         opti.minimize(J)
         if warm is not None:
