@@ -47,12 +47,30 @@ def test_the_amount_past_a_bound_between_the_points_matches_the_interval_polynom
     assert largest * 0.98 <= found[0][1] <= largest + 1e-12
 
 
-def test_a_refinement_says_where_its_solution_passes_a_bound_touched_at_an_instant():
-    """At 1e-4 the refinement stalls (it does not locate the touch); its record and message give the bound passed
-    between the points, by more than the tolerance, near the touch (0.6356 s in a reference with a mesh point there)."""
+def test_a_refinement_says_where_its_solution_passes_a_bound_touched_at_an_instant(monkeypatch):
+    """Where the touch is not imposed (here the arcs' imposition switched off, ocp/junction_times.TRIES), at 1e-4 the
+    refinement stalls; its record and message give the bound passed between the points, by more than the tolerance,
+    near the touch (0.6356 s in a reference with a mesh point there)."""
+    from ocp_constraints.ocp import junction_times
+
+    monkeypatch.setattr(junction_times, "TRIES", 0)
     sol = _cart_pole().solve(tolerance=1e-4, progress=False)
     record = sol.mesh_refinement
     passed = record["bounds_passed_between_points"]
     assert passed[0]["quantity"] == "cart.x" and passed[0]["amount"] > 1e-4 and abs(passed[0]["t"] - 0.6356) < 0.05
     assert "passes the bound on 'cart.x'" in record["message"]
     assert passed[0]["amount"] == pytest.approx(overshoots(sol)[0][1])
+
+
+def test_a_bound_touched_at_an_instant_is_imposed_as_a_touch_and_no_longer_passed():
+    """With the touch imposed (ocp/imposed_arcs.py: the cart at its bound with zero speed at one mesh point, placed at
+    the root of the push's jump) 1e-4 is met, the touch within 1e-5 s of the reference's 0.6356429 s (the fourth
+    newcomer's Lagrange reference, scripts/refinement_newcomer4), and the bound is not passed between the points by
+    more than the tolerance."""
+    sol = _cart_pole().solve(tolerance=1e-4, progress=False)
+    record = sol.mesh_refinement
+    assert record["met"], record["message"]
+    [touch] = record["input_arcs"]
+    assert touch["quantity"] == "cart.x" and touch["start"] == touch["end"] and abs(touch["start"] - 0.6356429) < 1e-5
+    assert all(p["amount"] <= 1e-4 for p in record.get("bounds_passed_between_points") or [])
+    assert all(amount <= 1e-4 for _, amount, _ in overshoots(sol))

@@ -65,7 +65,7 @@ def test_the_bang_bang_block_meets_1e_3_against_the_closed_form_with_a_mesh_poin
 def test_at_an_input_bounds_kink_the_estimate_bounds_the_multipliers_and_inputs_true_error():
     """The push clipped at its upper bound only (F = min(U, a - b t): one junction, where F and the rail's moment
     H F kink) refined to 1e-3: met, and the multipliers' and inputs' estimates at least their true errors against
-    the closed form. Without the kink floor (.error_estimate._kink_floor) the multipliers' true error was 1.52x
+    the closed form. Without the kink floor (.junction_floors.kink_floor) the multipliers' true error was 1.52x
     their estimate here (results/bench/refinement_holdouts_after.md): across a kink the companion two degrees up
     is closer to the truth by only about 2 / (p + 2) of the solution's error."""
     row = holdouts.refined_run("clipped_upper", 1e-3)

@@ -114,3 +114,37 @@ def test_a_pendulum_riding_a_stop_meets_the_tolerance_with_the_stop_imposed(tol)
     true_loads = max(np.abs(sol.interpolate(n, t) - v).max() for n, v in forces.items()) / record["load_scale"]
     for true, estimate in ((true_states, record["estimate"]["states"]), (true_loads, record["estimate"]["multipliers"])):
         assert 0.1 * estimate <= true <= estimate
+
+
+def _bryson_denham_touched(wall: float) -> oc.OptimalControlProblem:
+    """Bryson and Denham's block (examples/bryson_denham.py) on a prismatic joint, its wall at ``wall`` in [1/6, 1/4]:
+    touched once, at t = 1/2 (Bryson and Ho, sec. 3.11)."""
+    model = oc.Model("bryson_denham_touch", gravity=(0.0, -G, 0.0))
+    block = model.add_body("block", 1.0, np.diag([0.01, 0.01, 0.01]), rotation="321")
+    oc.joints.prismatic(model, "rail", block.com, axis=(1, 0, 0))
+    model.add_force("push", block.com, ca.vertcat(model.add_input("u"), 0, 0))
+    pr = oc.OptimalControlProblem(model, t_final=1.0)
+    pr.initial({"block.x": 0.0, "block.vbar_x": 1.0})
+    pr.final({"block.x": 0.0, "block.vbar_x": -1.0})
+    pr.bound("block.x", -1.0, wall)
+    pr.minimize_effort(["u"])
+    return pr
+
+
+def test_a_wall_touched_once_is_imposed_as_a_touch_and_is_exact():
+    """For a wall at 1/5 the block touches it at t = 1/2 only, at rest, its push continuous there (the cubic through
+    x(0) = 0, v(0) = 1, x(1/2) = 1/5, v(1/2) = 0, mirrored): one junction, the touch, with the state and its rate held
+    there. Each side's cubic is exact on any Radau mesh with a point at the touch; the first mesh has none (9 intervals),
+    so the touch is found as the root of the push's jump."""
+    wall = 0.2
+    sol = _bryson_denham_touched(wall).solve(oc.Radau(9, degree=5), tolerance=1e-6)
+    record = sol.mesh_refinement
+    assert record["met"]
+    [arc] = record["input_arcs"]
+    assert arc["state"] and arc["start"] == arc["end"] == pytest.approx(0.5, abs=1e-9)
+    t = np.linspace(0.0, 1.0, 2001)
+    s = np.minimum(t, 1.0 - t)
+    a, b = (3 * wall / 0.5 - 2) / 0.5, -(1 + 2 * (3 * wall / 0.5 - 2)) / (3 * 0.25)      # x = s + a s^2 + b s^3
+    x, v = s + a * s ** 2 + b * s ** 3, (1 + 2 * a * s + 3 * b * s ** 2) * np.where(t <= 0.5, 1.0, -1.0)
+    true = max(np.abs(sol.interpolate("block.x", t) - x).max(), np.abs(sol.interpolate("block.vbar_x", t) - v).max())
+    assert true <= record["estimate"]["states"] and true < 1e-9

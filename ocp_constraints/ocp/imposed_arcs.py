@@ -144,10 +144,18 @@ def _indices(tr, arc: Arc) -> np.ndarray:
     return _input_columns(tr, arc.quantity)
 
 
+def is_touch(arc: Arc) -> bool:
+    """A state's arc of no length: the bound touched at one instant (module notes)."""
+    return arc.state and arc.start == arc.end
+
+
 def inner_junctions(arcs: list[Arc]) -> list[tuple[int, str, float]]:
-    """``(arc, "start" | "end", fraction)`` of every inner junction."""
-    return [(k, side, at) for k, a in enumerate(arcs) for side, at in (("start", a.start), ("end", a.end))
-            if EPS < at < 1.0 - EPS]
+    """``(arc, "start" | "end" | "touch", fraction)`` of every inner junction (a touch is one)."""
+    out = []
+    for k, a in enumerate(arcs):
+        ends = (("touch", a.start),) if is_touch(a) else (("start", a.start), ("end", a.end))
+        out += [(k, side, at) for side, at in ends if EPS < at < 1.0 - EPS]
+    return out
 
 
 def _free_interval(tr, at: float, side: str) -> np.ndarray:
@@ -155,6 +163,8 @@ def _free_interval(tr, at: float, side: str) -> np.ndarray:
     which Radau's interval ends on), after an arc's end (``at`` not included)."""
     t, mesh = tr.fractions, tr.scheme.mesh_fractions
     k = int(np.argmin(np.abs(mesh - at)))
+    if side == "touch":
+        return np.concatenate([_free_interval(tr, at, "start"), _free_interval(tr, at, "end")])
     if side == "start":
         return np.flatnonzero((t > mesh[max(k - 1, 0)] + EPS) & (t <= at + EPS))
     return np.flatnonzero((t > at + EPS) & (t <= mesh[min(k + 1, len(mesh) - 1)] + EPS))
@@ -235,7 +245,7 @@ def mismatch(solution, arcs: list[Arc], scale: dict[str, float]) -> np.ndarray:
         if a.state:
             u = np.asarray(solution.sample(a.via), float).ravel()
             here, beyond = u[int(np.argmin(np.abs(t - at)))], _extrapolated(t[after] - at, u[after])
-            out.append((here - beyond if side == "start" else beyond - here) / scale[a.via])
+            out.append((beyond - here if side == "end" else here - beyond) / scale[a.via])
             continue
         u = values_of(solution, a)
         value = u[_free_interval(tr, at, side)[-1]] if side == "start" else _extrapolated(t[after] - at, u[after])
@@ -305,8 +315,15 @@ def find_arcs(solution) -> tuple[list[Arc], dict[str, float]]:
                 inside = [x for x in at if t[i - 1] <= x <= t[min(j + 1, len(t) - 1)]]
                 if i <= 1 or j == len(t) - 1 or len(inside) < 2:
                     continue
-                via = _kinking_input(solution, sorted(smooth), inside[0])
-                arcs.append(Arc(name, float(lo if s[i] < 0 else hi), min(inside), max(inside), state=True, via=via))
+                start, end = min(inside), max(inside)
+                mesh = tr.scheme.mesh_fractions
+                if np.searchsorted(mesh, start) == np.searchsorted(mesh, end):
+                    # Both junctions inside one interval: a touch, its NLP smeared over the interval's points (a
+                    # fourth newcomer's cart-pole, whose cart touches its bound once: the secant on an entry and an
+                    # exit crossed them over).
+                    start = end = 0.5 * (start + end)
+                via = _kinking_input(solution, sorted(smooth), start)
+                arcs.append(Arc(name, float(lo if s[i] < 0 else hi), start, end, state=True, via=via))
                 scale[name] = max([abs(b) for b in (lo, hi) if np.isfinite(b)] + [1e-12])
                 scale[via] = _input_scale(solution, pr, via)
                 continue

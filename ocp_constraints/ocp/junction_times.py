@@ -18,7 +18,7 @@ from dataclasses import dataclass, replace
 import numpy as np
 
 from ..errors import OCPSolveError
-from .imposed_arcs import (find_arcs, inner_junctions, mismatch, on_rows, pinned, pinned_points, values_of,
+from .imposed_arcs import (find_arcs, inner_junctions, is_touch, mismatch, on_rows, pinned, pinned_points, values_of,
                            with_junction_points)
 from .mesh_solves import timed_solve
 
@@ -61,7 +61,8 @@ def holds(solution, arcs, scale: dict, tol: float) -> bool:
         pull = -lam if a.value == _bounds(tr, a)[1] else lam
         # Not the points at an inner junction: the multiplier falls to zero there, and its sign is noise (a rod whose
         # arc of 0.033 s ended at -1.8e-6 of its arc's largest 1.2e-3, and its arcs were dropped).
-        inner = slice(1 if a.start > 0.0 else 0, -1 if a.end < 1.0 else None)
+        # A touch's one point is its junction: its multiplier, an impulse, pushes there.
+        inner = slice(None) if is_touch(a) else slice(1 if a.start > 0.0 else 0, -1 if a.end < 1.0 else None)
         if pull[inner].size and pull[inner].max() > PULL * np.abs(lam).max():
             return False
     return True
@@ -73,6 +74,33 @@ class ArcSet:
 
     arcs: tuple
     scale: dict
+    slopes: tuple | None = None     # each junction's mismatch per fraction of the horizon, from the secant that placed it
+
+
+def state_offset(g: np.ndarray, slopes, junctions, arcs, solution) -> float | None:
+    """How far (s) the junctions of state arcs may still be from their roots, ``|g / slope|``; None where a slope is
+    not known. Only a state's junction moves the motion to first order: shifted by ``d`` the states after it move by
+    their rate times ``d``, where an input's kink shifted by ``d`` changes the states by its slope change times ``d^2``."""
+    state = np.array([arcs[k].state for k, _, _ in junctions], bool)
+    if not state.any():
+        return 0.0
+    if slopes is None or np.any(np.asarray(slopes, float)[state] == 0.0):
+        return None
+    return float(np.max(np.abs(g[state]) / np.abs(np.asarray(slopes, float)[state]))) * float(solution.t_final)
+
+
+def _placed(g: np.ndarray, offset: float | None, solution, tol: float) -> bool:
+    """Whether the junctions are at their roots closely enough: each mismatch at most :data:`GOAL` times ``tol``, and a
+    state's junction's time to its root (:func:`state_offset`, where known) times the speeds' largest rate too. A
+    state's touch (the cart-pole's) moves the whole motion after it: a mismatch within the goal left it 1.2e-7 s off
+    its root (slope 0.85 per s) and the pole's speed 1.4e-6 rad/s off, 2.9x the estimate, which the companion, its own
+    touch as far off, did not see."""
+    if np.any(np.abs(g) > GOAL * tol):
+        return False
+    if not offset:
+        return True
+    rates = float(np.abs(np.asarray(solution.D, float)).max()) if np.size(solution.D) else 0.0
+    return offset * rates <= GOAL * tol
 
 
 def solve_on_arcs(problem, scheme, arc_set: ArcSet, tol: float, options: dict, warm, progress, first, fallback,
@@ -87,16 +115,26 @@ def solve_on_arcs(problem, scheme, arc_set: ArcSet, tol: float, options: dict, w
     times = np.array([at for _, _, at in junctions])
     mesh = scheme.mesh_fractions
     step = FIRST_STEP * np.array([np.diff(mesh)[min(max(np.searchsorted(mesh, at) - 1, 0), len(mesh) - 2)] for at in times])
-    before, wall, cpu = None, 0.0, 0.0
+    before, wall, cpu, slopes = None, 0.0, 0.0, arc_set.slopes
     for _ in range(STEPS):
         for (k, side, _), at in zip(junctions, times):
-            arcs[k] = replace(arcs[k], **{side: float(at)})
+            arcs[k] = replace(arcs[k], **({"start": float(at), "end": float(at)} if side == "touch" else {side: float(at)}))
         trial = with_junction_points(scheme, list(times))
         sol, w, c = timed_solve(problem, trial, options, warm, progress, first, fallback, scale_objective, arcs=arcs)
         wall, cpu = wall + w, cpu + c
         g = mismatch(sol, arcs, arc_set.scale)
-        if np.all(np.abs(g) <= GOAL * tol):
-            return sol, wall, cpu, trial, ArcSet(tuple(arcs), arc_set.scale), True
+        if before is not None:
+            old_times, old_g = before
+            moved = (g != old_g) & (times != old_times)
+            slopes = np.where(moved, (g - old_g) / np.where(moved, times - old_times, 1.0),
+                              np.nan if slopes is None else slopes)
+            slopes = None if np.any(np.isnan(slopes)) else tuple(float(x) for x in slopes)
+        offset = state_offset(g, slopes, junctions, arcs, sol)
+        if _placed(g, offset, sol, tol):
+            # How far its state junctions may still be from their roots, in s (.error_estimate reads it: a companion
+            # that needed no step shares this offset, and the comparison cannot see it).
+            sol.junction_offset_s = offset
+            return sol, wall, cpu, trial, ArcSet(tuple(arcs), arc_set.scale, slopes), True
         if before is None:
             # An arc's end later, or its start earlier, where the free side is past its bound there.
             sign = np.array([1.0 if side == "end" else -1.0 for _, side, _ in junctions])
@@ -110,7 +148,7 @@ def solve_on_arcs(problem, scheme, arc_set: ArcSet, tol: float, options: dict, w
         if not np.all(np.isfinite(new)):
             break
         times = np.clip(new, 1e-6, 1.0 - 1e-6)
-    return sol, wall, cpu, trial, ArcSet(tuple(arcs), arc_set.scale), False
+    return sol, wall, cpu, trial, ArcSet(tuple(arcs), arc_set.scale, slopes), False
 
 
 def align_junctions(problem, scheme, solution, tol: float, options: dict, progress, first, fallback, scale_objective,
@@ -122,7 +160,7 @@ def align_junctions(problem, scheme, solution, tol: float, options: dict, progre
     arc the first did not (a rod whose torque sits on its bound for the first 0.5% of the horizon: no collocation point
     of the first mesh falls there)."""
     arcs, scale = find_arcs(solution)
-    structure = tuple((a.quantity, a.value, a.start > 0.0, a.end < 1.0) for a in arcs)
+    structure = tuple((a.quantity, a.value, a.start > 0.0, a.end < 1.0, is_touch(a)) for a in arcs)
     if not inner_junctions(arcs) or structure in tried or len(tried) >= TRIES:
         return None
     tried.add(structure)

@@ -7,7 +7,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from .error_estimate import floored_kinks
+from .junction_floors import floored_kinks
 from .legendre_decay import DECAY_LIMIT
 
 MIN_INTERVAL = 1e-6     # fraction of the horizon below which an interval is not split further
@@ -99,7 +99,7 @@ def nonsmooth_splits(sol, tol: float, smoothness: tuple, windows=()) -> dict[int
 def judged_smoothness(smoothness: tuple, switches) -> tuple[np.ndarray, np.ndarray]:
     """``smoothness`` (:func:`.legendre_decay.legendre_decay`) with the decay of every interval that holds a located,
     floored kink set to 0: there the inputs and multipliers kink by construction, and their estimate already carries
-    the kink's own size (:func:`.error_estimate._kink_floor`), so the interval is neither flagged nor halved for it.
+    the kink's own size (:func:`.junction_floors.kink_floor`), so the interval is neither flagged nor halved for it.
     Halving it only moved the kink into a shorter interval that was still "not smooth": the newcomer cart-pole at 1e-3,
     its hinge force's junction at 0.3466 of the horizon, was halved down to 5e-4 of it and "met" withdrawn after 10
     refinements, with the estimate (kink floor included) met at 1,240 points."""

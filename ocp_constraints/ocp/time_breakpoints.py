@@ -3,7 +3,7 @@
 A reference tracked from samples (``ca.pw_lin(t, times, values)``), a force switched on at a given time
 (``ca.if_else(t < 0.5, 0, F)``) or a profile with ``fabs``, ``fmin`` or ``fmax`` of the time makes the solution's
 inputs and multipliers kink there. Inside a collocation interval a kink costs accuracy that only shorter intervals
-buy back, slowly (:mod:`.error_estimate`, ``KINK_C``); at a mesh point it costs nothing. These times are in the
+buy back, slowly (:mod:`.junction_floors`, ``KINK_C``); at a mesh point it costs nothing. These times are in the
 expressions: each is where an affine function of ``t`` is compared with another (``<``, ``<=``, ``==``, ``!=``,
 ``fmin``, ``fmax``) or passes zero under ``fabs`` or ``sign``. Found by reading the expressions' operations, not
 by sampling. Measured (a ninth newcomer's rod tracking samples of a sine at 50 Hz by ``np.interp``, whose CasADi form
