@@ -84,6 +84,8 @@ class CondensedLayout(Layout):
 class CondensedTranscription(Transcription):
     """The maximal NLP without acceleration and multiplier variables (see the module docstring)."""
 
+    rate_rows = False       # its path rows are its own (no arc is imposed on it: .imposed_arcs.path_rows)
+
     def __init__(self, problem, scheme, slacks: str = "mesh"):
         if slacks not in SLACKS:
             raise ModelError(f"slacks must be one of {', '.join(SLACKS)}, got {slacks!r}")

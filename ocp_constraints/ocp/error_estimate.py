@@ -29,7 +29,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from .arc_floor import arc_floor
-from .junction_floors import junction_offset_floor, kink_floor, with_junction_samples
+from .junction_floors import kink_floor, with_junction_samples
 
 SAFETY = 2.0
 SAMPLES_PER_POINT = 2
@@ -307,7 +307,6 @@ def estimate_error(solution, companion, safety: float = SAFETY, windows=(), swit
         est.local["states"][w.interval] = max(est.local["states"][w.interval], w.effect)
         est.totals["states"] = max(est.totals["states"], w.effect)
     kink_floor(solution, est, switches, names(solution))
-    junction_offset_floor(solution, companion, est, safety, names(solution))
     # On an arc of a bound on the states: the interior point's gap from it, which the companion shares (.arc_floor).
     # Only in the total: refinement cannot lower it (ErrorEstimate.refinement_ratio, held_by_arcs).
     _, held = arc_floor(solution, switches)

@@ -34,12 +34,11 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
-import casadi as ca
 import numpy as np
 
 from .schemes import Radau
 from .switch_detection import activity, bounded_quantities, detect_switches, penalized_inputs
-from .transcription_elements import path_scale
+from .transcription_elements import path_scale, single_speed
 
 
 @dataclass(frozen=True)
@@ -74,7 +73,7 @@ def _input_columns(tr, name: str) -> np.ndarray:
 def path_rows(tr, label: str) -> np.ndarray | None:
     """The NLP row of path constraint ``label`` at every point, or None where the transcription keeps its path rows
     elsewhere than after each point's position rows (the condensed one)."""
-    names = [c.label for c in tr.problem.path_constraints]
+    names = [c.label for c in tr.nlp_path_constraints]
     if label not in names or len(tr.position_rows_at) != tr.layout.n_points:
         return None
     rows = []
@@ -95,7 +94,7 @@ def moves_with_inputs(solution, label: str, at: np.ndarray) -> bool:
     variable of its own and no row moves with the inputs: there only the inputs' arcs are imposed."""
     tr = solution.transcription
     path = tr.point_pieces[0]["path"]
-    j = [c.label for c in tr.problem.path_constraints].index(label)
+    j = [c.label for c in tr.nlp_path_constraints].index(label)
     X, _, L, W, _, _ = (np.asarray(b, float) for b in tr.layout.split(np.asarray(solution.decision_vector, float)))
     pr = getattr(tr, "user_problem", tr.problem)
     span = np.array([max([abs(b) for b in pr.bounds.get(n, (np.nan, np.nan)) if np.isfinite(b)] + [1.0])
@@ -124,7 +123,7 @@ def rate_row(name: str) -> str:
 def on_rows(tr, arc: Arc) -> bool:
     """Whether the arc is held by NLP rows (a path constraint; a state's bound in joint coordinates, where the bodies'
     coordinates are expressions), else by decision variables (an input; a state in maximal coordinates)."""
-    return arc.path or (arc.state and any(c.label == state_row(arc.quantity) for c in tr.problem.path_constraints))
+    return arc.path or (arc.state and any(c.label == state_row(arc.quantity) for c in tr.nlp_path_constraints))
 
 
 def _row_label(arc: Arc) -> str:
@@ -132,7 +131,7 @@ def _row_label(arc: Arc) -> str:
 
 
 def _path_scale(tr, arc: Arc) -> float:
-    return path_scale(next(c for c in tr.problem.path_constraints if c.label == _row_label(arc)))
+    return path_scale(next(c for c in tr.nlp_path_constraints if c.label == _row_label(arc)))
 
 
 def _indices(tr, arc: Arc) -> np.ndarray:
@@ -219,15 +218,13 @@ def entry_rate(tr, name: str) -> tuple[str, np.ndarray] | None:
     pr = tr.problem
     if name not in pr.model.coordinate_names:
         return None
-    if any(c.label == state_row(name) for c in pr.path_constraints):
+    if any(c.label == rate_row(name) for c in tr.nlp_path_constraints):
         rows = path_rows(tr, rate_row(name))
         return None if rows is None else ("rows", rows)
-    e = pr.eqs
-    N = ca.jacobian(e.qdot[pr.model.coordinate_names.index(name)], e.u)
-    if not N.is_constant() or N.nnz() != 1 or float(ca.DM(N)[0, N.sparsity().get_col()[0]]) != 1.0:
+    j = single_speed(pr.eqs, pr.model.coordinate_names.index(name))
+    if j is None or any(c.label == state_row(name) for c in tr.nlp_path_constraints):
         return None
-    j = N.sparsity().get_col()[0]
-    return "columns", e.nq + j + np.arange(tr.layout.n_points) * tr.layout.nx
+    return "columns", pr.eqs.nq + j + np.arange(tr.layout.n_points) * tr.layout.nx
 
 
 def mismatch(solution, arcs: list[Arc], scale: dict[str, float]) -> np.ndarray:
@@ -297,7 +294,7 @@ def find_arcs(solution) -> tuple[list[Arc], dict[str, float]]:
         every_input = bool(smooth) and set(smooth) == set(pr.model.inputs)
         if state:
             # A coordinate's arc needs its rate held at the entry (entry_rate); a speed's is held by its own bound.
-            on_path_rows = any(c.label == state_row(name) for c in tr.problem.path_constraints)
+            on_path_rows = any(c.label == state_row(name) for c in tr.nlp_path_constraints)
             if not every_input or (on_path_rows and path_rows(tr, state_row(name)) is None) or (
                     name in pr.model.coordinate_names and entry_rate(tr, name) is None):
                 continue

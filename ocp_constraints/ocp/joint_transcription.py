@@ -85,6 +85,8 @@ def transcribe_joint(problem, scheme) -> Transcription:
 class JointTranscription(Transcription):
     """The NLP of a problem in joint coordinates; solutions come back in the bodies' coordinates."""
 
+    rate_rows = False       # the view's own path rows hold the state bounds and their rates (ReducedProblem)
+
     def __init__(self, problem, scheme, reduced: JointCoordinates | None = None, like: JointTranscription | None = None):
         """``like``: a joint transcription of the same problem, unchanged since (a refinement's earlier mesh):
         its joint coordinates, problem view and point functions are taken, not built again."""

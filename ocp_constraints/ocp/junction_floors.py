@@ -3,32 +3,11 @@
 :func:`.error_estimate.estimate_error` takes twice the difference of a solution and its companion (the same mesh, higher
 degrees). At a kink inside an interval (an input or a load leaving its bound) the difference falls short of the error
 (:func:`kink_floor`); at an imposed junction (:mod:`.imposed_arcs`) the two differ only between their junction times,
-where the mesh has no sample (:func:`with_junction_samples`), and a junction still off its root by what the secant left
-moves a state's arc's motion in both alike (:func:`junction_offset_floor`).
+where the mesh has no sample (:func:`with_junction_samples`).
 """
 from __future__ import annotations
 
 import numpy as np
-
-
-def junction_offset_floor(solution, companion, est, safety: float, sample_names: dict) -> None:
-    """Where imposed junctions (:mod:`.junction_times`) may still be ``d`` s from their roots, in the solution or in a
-    companion that shares them, the states' estimate is at least ``safety`` times ``d`` times the speeds' largest rate,
-    and the multipliers' ``d`` times their largest rate (relative to the load scale): a shift of a junction moves the
-    motion after it. Bryson-Denham's wall touched once (``tests/test_refinement_state_arcs.py``): the touch 0.5 within
-    the goal of its mismatch, the block's speed 1.2e-10 off, above the estimate (IPOPT's floor, 1e-10)."""
-    offsets = [getattr(s, "junction_offset_s", None) for s in (solution, companion)]
-    d = max([x for x in offsets if x is not None], default=0.0)
-    if not d:
-        return
-    rates = float(np.abs(np.asarray(solution.D, float)).max()) if np.size(solution.D) else 0.0
-    est.totals["states"] = max(est.totals["states"], safety * d * rates)
-    multipliers = sample_names["multipliers"]
-    if multipliers and est.load_scale:
-        lam = np.array([np.asarray(solution.sample(n), float).ravel() for n in multipliers])[:, 1:]
-        dt = np.diff(solution.t[1:])
-        slope = float(np.abs(np.diff(lam, axis=1) / np.where(dt > 0, dt, np.inf)).max()) if dt.size else 0.0
-        est.totals["multipliers"] = max(est.totals["multipliers"], safety * d * slope / est.load_scale)
 
 
 def with_junction_samples(grid: tuple[np.ndarray, np.ndarray], solution, companion) -> tuple[np.ndarray, np.ndarray]:

@@ -29,6 +29,25 @@ class ElementKinds:
     """The element methods of :class:`~.transcription.Transcription` (a mixin: it reads ``problem``, ``eqs``,
     ``layout``, ``scheme``, ``local``, ``offsets``, ``fractions``, ``quadrature``, ``from_speeds``)."""
 
+    # Whether the NLP adds a free row of each bounded angle's rate (the maximal form; a joint view has its own rows).
+    rate_rows = True
+
+    @property
+    def nlp_path_constraints(self) -> list:
+        """The NLP's path rows: the problem's (a joint-coordinate view's hold its state bounds and their rates), and in
+        the maximal form a free row of each bounded coordinate's rate where it is no single speed (an Euler angle's),
+        which a refinement holds at zero at an arc's entry (:mod:`.imposed_arcs`)."""
+        kept = self.__dict__.get("_nlp_path")
+        if kept is None:
+            pr, rows = self.problem, list(self.problem.path_constraints)
+            if self.rate_rows:
+                names = pr.model.coordinate_names
+                rows += [SimpleNamespace(label=f"rate of {n}", expression=pr.quantity(f"{n}_dot"), lower=-np.inf,
+                                         upper=np.inf, scale=1.0)
+                         for n in pr.bounds if n in names and single_speed(pr.eqs, names.index(n)) is None]
+            kept = self.__dict__["_nlp_path"] = rows
+        return kept
+
     def _groups(self) -> dict:
         """Intervals sharing one local scheme (one element kind each): ``{label: (scheme, [k, ...])}``."""
         out: dict = {}
@@ -95,7 +114,7 @@ class ElementKinds:
         frac, quad = SX.sym("frac"), SX.sym("quad")
         t = frac * s.T
         rows = list(s.point["residuals"](x, a, lam, w, t))
-        if pr.path_constraints:
+        if self.nlp_path_constraints:
             rows.append(s.point["path"](x, lam, w, t))
         cost = quad * s.T * s.point["integrand"](x, lam, w, t) if pr.integral_terms else SX(0)
         return frac, quad, ca.vertcat(*rows), cost
@@ -105,7 +124,7 @@ class ElementKinds:
         pr, e, lay, scheme = self.problem, self.eqs, self.layout, self.scheme
         x, a, lam, w, index = s.x, s.a, s.lam, s.w, s.index
         n_eq = e.nu + e.nc + lay.nh
-        path_lo, path_hi = scaled_path_bounds(pr.path_constraints)
+        path_lo, path_hi = scaled_path_bounds(self.nlp_path_constraints)
         lo, hi = [0.0] * n_eq + path_lo, [0.0] * n_eq + path_hi
 
         def build_point():
@@ -252,9 +271,9 @@ class ElementKinds:
         if pr.integral_terms:
             integrand = sum(term.weight * term.expression for term in pr.integral_terms)
             out["integrand"] = ca.Function("integrand", [x, lam, e.inputs, e.t], [integrand])
-        if pr.path_constraints:
+        if self.nlp_path_constraints:
             out["path"] = ca.Function("path", [x, lam, e.inputs, e.t],
-                                      [ca.vertcat(*[c.expression / path_scale(c) for c in pr.path_constraints])])
+                                      [ca.vertcat(*[c.expression / path_scale(c) for c in self.nlp_path_constraints])])
         for term in pr.integral_terms + pr.terminal_terms + pr.path_constraints:
             extra = [s.name() for s in ca.symvar(term.expression) if not ca.depends_on(ca.vertcat(x, lam, e.inputs, e.t), s)]
             if extra:
@@ -277,6 +296,16 @@ def path_scale(constraint) -> float:
     user's units."""
     return max([1.0, float(constraint.scale)]
                + [abs(float(b)) for b in (constraint.lower, constraint.upper) if np.isfinite(b)])
+
+
+def single_speed(eqs, i: int) -> int | None:
+    """The speed that coordinate ``i``'s rate is, where it is one speed alone (``q_i' = u_j``: a translation's in the
+    maximal form), else None (an Euler angle's rate mixes the angular speeds)."""
+    N = ca.jacobian(eqs.qdot[i], eqs.u)
+    if not N.is_constant() or N.nnz() != 1:
+        return None
+    j = N.sparsity().get_col()[0]
+    return j if float(ca.DM(N)[0, j]) == 1.0 else None
 
 
 def scaled_path_bounds(constraints) -> tuple[list[float], list[float]]:

@@ -1,6 +1,6 @@
-"""Junction times of arm_sat from the necessary conditions (indirect multiple shooting), independent of any
+"""Junction times of arm_sat (or rod_lower) from the necessary conditions (indirect multiple shooting), independent of any
 collocation: states x and costates lam with H = |u|^2 + lam . f(x, u); on a free phase u = argmin H =
--B(x)^T lam / 2, on an arc tau1 = +-bound and tau2 = -(B^T lam)_2 / 2; each junction is where the unconstrained
+-B(x)^T lam / 2, on an arc tau1 = +-bound and tau2 = -(B^T lam)_2 / 2 (u[0] = bound, the rest free); each junction is where the unconstrained
 tau1 = -(B^T lam)_1 / 2 equals the bound (the switching condition, transversal here: |dtau1/dt| ~ 10 /s), x and lam
 continuous. Unknowns lam(0), the 5 phase durations and the multiple-shooting nodes; CVODES at rtol = atol = TOL;
 plain Newton. Guess: ref_arm_sat.pkl (costates from its inputs: lam_v = -2 B_v^-T u, lam_q = -lam_v' - a_v^T lam_v).
@@ -22,8 +22,10 @@ sys.path.insert(0, str(HERE))
 import reference as R  # noqa: E402
 
 
-def build(phases, M, tol):
-    S = R.system("arm_sat")
+def build(name, phases, M, tol):
+    if name == "cart_force":
+        raise NotImplementedError("the bounded quantity must be the first input (arm_sat, rod_lower)")
+    S = R.system(name)
     n2 = 2 * S["n"]
     x = ca.SX.sym("x", n2); lam = ca.SX.sym("lam", n2); u = ca.SX.sym("u", S["nu"])
     fx = S["f"](x, u)
@@ -35,7 +37,7 @@ def build(phases, M, tol):
     dur = ca.SX.sym("dur")
     Fs, ufun, daes = {}, {}, {}
     for ii, (kind, val) in enumerate(sorted(set(phases))):
-        uu = ufree if kind == "free" else ca.vertcat(val, ufree[1])
+        uu = ufree if kind == "free" else ca.vertcat(val, *[ufree[i] for i in range(1, S["nu"])])
         ode = dur / M * ca.substitute(rhs, u, uu)
         daes[(kind, val)] = {"x": z, "p": dur, "ode": ode}
         Fs[(kind, val)] = ca.integrator(f"I{ii}", "cvodes", daes[(kind, val)], 0.0, 1.0,
@@ -48,7 +50,7 @@ def build(phases, M, tol):
 
 def solve(ref, M=8, tol=1e-13, verbose=True):
     phases = [tuple(p) for p in ref["phases"]]
-    S, Fs, ufun, sw, n2, daes = build(phases, M, tol)
+    S, Fs, ufun, sw, n2, daes = build(ref["name"], phases, M, tol)
     P = len(phases)
     # unknowns
     lam0 = ca.MX.sym("lam0", n2)
@@ -75,7 +77,7 @@ def solve(ref, M=8, tol=1e-13, verbose=True):
     G = ca.Function("G", [W], [res])
     JG = ca.Function("JG", [W], [ca.jacobian(res, W)])
     # guess from the collocation reference
-    w0 = _guess(ref, S, Fs, phases, M, n2)
+    w0 = _guess(ref, S, Fs, phases, M, n2, daes)
     w = w0.copy()
     for it in range(40):
         r = np.array(G(w)).ravel()
@@ -120,9 +122,9 @@ def _objective(S, phases, ufun, daes, w, dv, M, n2, tol):
     return float(J)
 
 
-def _guess(ref, S, Fs, phases, M, n2):
+def _guess(ref, S, Fs, phases, M, n2, daes):
     """Nodes from the collocation reference: x interpolated; lam from its inputs on free phases, integrated
-    across arcs from the preceding node."""
+    across arcs from the preceding node (backwards from the following free phase for an arc at t = 0)."""
     nq = S["n"]
     x = ca.SX.sym("x", n2); u = ca.SX.sym("u", S["nu"])
     fx = S["f"](x, u)
@@ -148,6 +150,16 @@ def _guess(ref, S, Fs, phases, M, n2):
             tt = min(max(t, 1e-5), t0s[-1] - 1e-5)
             if phases[p][0] == "free":
                 zz = np.concatenate([R._xfun(ref, tt + (1e-5 if m == 0 else 0)), lam_at(tt + (2e-5 if m == 0 else 0))])
+            elif z_prev_end is None:            # an arc first: integrate back from the next free phase
+                if m == 0:
+                    dae = dict(daes[phases[p]]); dae["ode"] = -dae["ode"]
+                    Fb = ca.integrator("Ib", "cvodes", dae, 0.0, 1.0, {"abstol": 1e-12, "reltol": 1e-12})
+                    tj = t0s[p + 1] + 2e-5
+                    zb = [np.concatenate([R._xfun(ref, tj), lam_at(tj)])]
+                    for _ in range(M):
+                        zb.append(np.array(Fb(x0=zb[-1], p=d[p])["xf"]).ravel())
+                    back = zb[::-1]
+                zz = back[m]
             else:
                 zz = z_prev_end
             if (p, m) == (0, 0):

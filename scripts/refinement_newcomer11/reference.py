@@ -23,6 +23,9 @@ FREE_BOUNDS = '--no-free-bounds' not in sys.argv   # bounds also as inequalities
 # could ride the bound past its junction, the arc's length then undetermined; checked afterwards on a dense grid)
 BOX = (0.02, 0.002) if '--no-box' not in sys.argv else (None, None)   # s, for N and 2N
 CONTINUITY = '--no-continuity' not in sys.argv   # quantity continuous at each junction
+BARYCENTRIC = '--barycentric' in sys.argv   # differentiation matrix by the barycentric formula (column sums 0 to
+# 1e-15); the np.poly1d one below has column sums off by 1.3e-11 at degree 7, a bias ~eps*X/h per interval that
+# grows with N (arm_sat: states 5e-7 apart between N = 30 and 60, J 1.9e-10 apart, J rising linearly in N)
 BOUNDS = json.loads((HERE / "bounds.json").read_text())
 
 
@@ -106,17 +109,27 @@ def system(name):
                 lams=ca.Function("Lm", [x, u], [ca.vertcat(*[lams[k] for k in ln])]), lam_names=ln)
 
 
-def radau(d):
+def radau(d, barycentric=None):
     tau = np.append(0, ca.collocation_points(d, "radau"))
     C = np.zeros((d + 1, d + 1)); B = np.zeros(d + 1)
-    for j in range(d + 1):
-        p = np.poly1d([1])
-        for r in range(d + 1):
-            if r != j:
-                p *= np.poly1d([1, -tau[r]]) / (tau[j] - tau[r])
-        dp = np.polyder(p)
-        for r in range(d + 1):
-            C[j, r] = dp(tau[r])
+    if BARYCENTRIC if barycentric is None else barycentric:
+        w = np.array([1 / np.prod([tau[j] - tau[k] for k in range(d + 1) if k != j]) for j in range(d + 1)])
+        D = np.zeros((d + 1, d + 1))
+        for i in range(d + 1):
+            for j in range(d + 1):
+                if i != j:
+                    D[i, j] = w[j] / w[i] / (tau[i] - tau[j])
+            D[i, i] = -D[i].sum()              # the negative-sum trick: D @ 1 = 0 to rounding
+        C[:] = D.T                              # C[j, r] = l_j'(tau_r)
+    else:
+        for j in range(d + 1):
+            p = np.poly1d([1])
+            for r in range(d + 1):
+                if r != j:
+                    p *= np.poly1d([1, -tau[r]]) / (tau[j] - tau[r])
+            dp = np.polyder(p)
+            for r in range(d + 1):
+                C[j, r] = dp(tau[r])
     for j in range(1, d + 1):                       # Radau quadrature: the collocation points' own basis
         p = np.poly1d([1])
         for r in range(1, d + 1):
@@ -126,8 +139,15 @@ def radau(d):
     return tau, C, B
 
 
-def solve(name, phases, N, d, guess=None, box=None):
-    """phases: list of (kind, value) with kind 'free' or 'arc'; guess: dict(durations, xfun(t), ufun(t))."""
+def solve(name, phases, N, d, guess=None, box=None, continuity=None, fixed_durations=None, free_bounds=None):
+    """phases: list of (kind, value) with kind 'free' or 'arc'; guess: dict(durations, xfun(t), ufun(t)).
+    continuity: impose the quantity's continuity at each junction (default: CONTINUITY, i.e. on unless
+    --no-continuity); fixed_durations: phase durations held fixed (e.g. from indirect.py), box then ignored;
+    free_bounds: the bounds as inequalities on free phases (default FREE_BOUNDS)."""
+    if continuity is None:
+        continuity = CONTINUITY
+    if free_bounds is None:
+        free_bounds = FREE_BOUNDS
     S = system(name)
     n, nu, T = S["n"], S["nu"], S["T"]
     tau, C, B = radau(d)
@@ -135,7 +155,9 @@ def solve(name, phases, N, d, guess=None, box=None):
     durs = opti.variable(len(phases))
     opti.subject_to(ca.sum1(durs) == T)
     opti.subject_to(durs >= 1e-3)
-    if box is not None:     # a trust box about the guess's durations: keeps a free phase from riding the bound
+    if fixed_durations is not None:
+        opti.subject_to(durs == ca.DM(np.asarray(fixed_durations, float)))
+    elif box is not None:     # a trust box about the guess's durations: keeps a free phase from riding the bound
         opti.subject_to(opti.bounded(guess["durations"] - box, durs, guess["durations"] + box))
     J = 0
     Xprev = opti.variable(2 * n)
@@ -154,7 +176,7 @@ def solve(name, phases, N, d, guess=None, box=None):
                 J += B[j] * h * ca.sumsqr(Uc[j - 1])
                 g = S["path"](Xall[j], Uc[j - 1])
                 for i, (lo, hi) in enumerate(S["ulim"]):
-                    if name != "cart_force" and i == 0 and (kind == "arc" or not FREE_BOUNDS):
+                    if name != "cart_force" and i == 0 and (kind == "arc" or not free_bounds):
                         continue
                     if np.isfinite(lo):
                         opti.subject_to(Uc[j - 1][i] >= lo)
@@ -162,14 +184,14 @@ def solve(name, phases, N, d, guess=None, box=None):
                         opti.subject_to(Uc[j - 1][i] <= hi)
                 if kind == "arc":
                     opti.subject_to(g == val)
-                elif name == "cart_force" and FREE_BOUNDS:
+                elif name == "cart_force" and free_bounds:
                     opti.subject_to(opti.bounded(-blim, g, blim))
             nodes.append((p, k, Xall, Uc))
-            if CONTINUITY and kind == "free" and k == 0 and p > 0 and phases[p - 1][0] == "arc":
+            if continuity and kind == "free" and k == 0 and p > 0 and phases[p - 1][0] == "arc":
                 w0 = _lagrange(tau[1:], np.eye(d), np.array([0.0]))[0]      # u extrapolated to the junction
                 u0 = sum(w0[j] * Uc[j] for j in range(d))
                 opti.subject_to(S["path"](Xall[0], u0) == phases[p - 1][1])
-            if CONTINUITY and kind == "free" and k == N - 1 and p + 1 < len(phases) and phases[p + 1][0] == "arc":
+            if continuity and kind == "free" and k == N - 1 and p + 1 < len(phases) and phases[p + 1][0] == "arc":
                 opti.subject_to(S["path"](Xall[d], Uc[d - 1]) == phases[p + 1][1])
             Xprev = Xc[-1]
     opti.subject_to(Xprev == ca.DM(S["xf"]))
@@ -277,14 +299,31 @@ def structure_from_lib(name):
 
 def main():
     ap = argparse.ArgumentParser()
-    ap.add_argument("name"); ap.add_argument("--N", type=int, default=30); ap.add_argument("--degree", type=int, default=7); ap.add_argument("--no-continuity", action="store_true"); ap.add_argument("--no-free-bounds", action="store_true"); ap.add_argument("--no-box", action="store_true"); ap.add_argument("--tag", default="")
+    ap.add_argument("name"); ap.add_argument("--N", type=int, default=30); ap.add_argument("--degree", type=int, default=7); ap.add_argument("--no-continuity", action="store_true"); ap.add_argument("--no-free-bounds", action="store_true"); ap.add_argument("--no-box", action="store_true"); ap.add_argument("--barycentric", action="store_true"); ap.add_argument("--tag", default="")
+    ap.add_argument("--indirect", action="store_true", help="junction times from indirect.py (necessary conditions, "
+                    "seeded by the N solve), then N and 2N with those durations fixed, no continuity constraint and no bounds on "
+                    "free phases (both then follow; checked: the input's gap at each junction, the dense bound check)")
     a = ap.parse_args()
     phases, guess = structure_from_lib(a.name)
     print("phases", phases, "guess durations", np.round(guess["durations"], 4))
     r1 = solve(a.name, phases, a.N, a.degree, guess, box=BOX[0])
     g2 = dict(durations=r1["durations"], xfun=lambda tt: _xfun(r1, tt),
               ufun=lambda tt: _ufun(r1, tt))
-    r2 = solve(a.name, phases, 2 * a.N, a.degree, g2, box=BOX[1])
+    if a.indirect:
+        import indirect
+        ind = indirect.solve(r1, verbose=False)
+        print("indirect junctions", [float(x) for x in ind["junctions"]], "residual", ind["residual"],
+              "J", ind["objective"])
+        print("free-duration N junctions", [float(x) for x in r1["junctions"]], "J", r1["objective"])
+        r1 = solve(a.name, phases, a.N, a.degree, g2, continuity=False, free_bounds=False,
+                   fixed_durations=ind["durations"])
+        g2 = dict(durations=r1["durations"], xfun=lambda tt: _xfun(r1, tt), ufun=lambda tt: _ufun(r1, tt))
+        r2 = solve(a.name, phases, 2 * a.N, a.degree, g2, continuity=False, free_bounds=False,
+                   fixed_durations=ind["durations"])
+        for r in (r1, r2):      # the input's gap to the bound at each junction (continuity now a consequence)
+            print("N", r["N"], "input at the junctions minus the arc value:", _junction_gaps(r))
+    else:
+        r2 = solve(a.name, phases, 2 * a.N, a.degree, g2, box=BOX[1])
     for r, bx, g in ((r1, BOX[0], guess["durations"]), (r2, BOX[1], r1["durations"])):
         edge = np.abs(np.abs(r["durations"] - g) - bx) < 1e-6 * max(bx, 1e-9)
         print("durations", r["N"], np.round(r["durations"], 9), "at the box edge:", bool(edge.any()))
@@ -306,6 +345,24 @@ def main():
     r2["accuracy"] = acc
     with open(HERE / f"ref_{a.name}{a.tag}.pkl", "wb") as fh:
         pickle.dump(r2, fh)
+
+
+def _junction_gaps(r):
+    S = system(r["name"])
+    tau, _, _ = radau(r["d"])
+    N, ph = r["N"], r["phases"]
+    out = []
+    for j in range(len(ph) - 1):
+        p = j if ph[j][0] == "free" else j + 1
+        if ph[p][0] != "free" or ph[j + 1 if p == j else j][0] != "arc":
+            continue
+        iv = r["intervals"][p * N + (N - 1 if p == j else 0)]
+        s = np.array([1.0 if p == j else 0.0])
+        U = _lagrange(tau[1:], iv["U"], s)[0]
+        X = _lagrange(tau, iv["X"], s)[0]
+        arc = ph[j + 1][1] if p == j else ph[j][1]
+        out.append(float(np.array(S["path"](X, U)).ravel()[0] - arc))
+    return out
 
 
 def _xfun(r, tt):
