@@ -21,12 +21,12 @@ MASS, LENGTH, T_FINAL, STOP, G = 1.0, 1.0, 2.0, 0.5, 9.81
 INERTIA, K = MASS * LENGTH ** 2 / 3, MASS * G * LENGTH / 2        # about the hinge; gravity's torque m g L/2 sin psi
 
 
-def pendulum_on_a_stop() -> oc.OptimalControlProblem:
+def pendulum_on_a_stop(coordinates: str = "auto") -> oc.OptimalControlProblem:
     model = oc.Model("stop_pendulum", gravity=(0.0, -G, 0.0))
     rod = model.add_body("rod", MASS, MASS * LENGTH ** 2 / 12 * np.diag([1.0, 0.0, 1.0]), rotation="321")
     oc.joints.revolute(model, "hinge", rod.point("A", [0.0, LENGTH / 2, 0.0]), axis=(0, 0, 1))
     model.add_torque("motor", rod, ca.vertcat(0, 0, model.add_input("motor")))
-    pr = oc.OptimalControlProblem(model, t_final=T_FINAL)
+    pr = oc.OptimalControlProblem(model, t_final=T_FINAL, coordinates=coordinates)
     pr.initial({"rod.psi": 1.0, "rod.omega_z": 0.0})
     pr.final({"rod.psi": 0.8, "rod.omega_z": 0.0})
     pr.bound("rod.psi", lower=STOP)
@@ -88,12 +88,14 @@ def _phase_reference(N: int = 20, s: int = 5):
     return t1, t2, evaluate
 
 
-@pytest.mark.parametrize("tol", [1e-5, 1e-7])
-def test_a_pendulum_riding_a_stop_meets_the_tolerance_with_the_stop_imposed(tol):
+@pytest.mark.parametrize("coordinates, tol", [("auto", 1e-5), ("auto", 1e-7), ("maximal", 1e-6)])
+def test_a_pendulum_riding_a_stop_meets_the_tolerance_with_the_stop_imposed(coordinates, tol):
     """The stop's arc imposed, its entry and exit at the roots of the torque's jump: the junctions at the reference's
-    and the true errors of the states and the hinge force within [0.1, 1] of the estimates."""
+    and the true errors of the states and the hinge force within [0.1, 1] of the estimates. In joint coordinates the
+    angle is a coordinate of the view; in maximal coordinates its rate mixes the angular speeds (a free "rate of" row
+    holds it at the entry; before that row, 1e-6 was not met on 869 points there)."""
     t1, t2, reference = _phase_reference()
-    sol = pendulum_on_a_stop().solve(tolerance=tol)
+    sol = pendulum_on_a_stop(coordinates).solve(tolerance=tol)
     record = sol.mesh_refinement
     assert record["met"]
     [arc] = record["input_arcs"]
