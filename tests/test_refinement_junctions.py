@@ -198,12 +198,15 @@ def test_a_torque_leaving_its_bound_leaves_the_states_estimate_within_ten_times_
         (tau_max, 0.0, pytest.approx(t1, abs=1e-7)), (-tau_max, pytest.approx(t_final - t1, abs=1e-7), t_final)]
 
 
-def test_a_path_constraint_that_moves_with_the_input_has_its_arcs_imposed_against_the_closed_form():
+@pytest.mark.parametrize("form", ["bounds", "zero"])
+def test_a_path_constraint_that_moves_with_the_input_has_its_arcs_imposed_against_the_closed_form(form):
     """The clipped push (a block on a rail, least int F^2, rest to rest over D in T) with |F| <= FMAX written as a bound
     on the rail's moment instead: the push acts H above the centre of mass, so the rail holds the moment H F
     (rail.w3), a multiplier that moves with the input. Its arcs are imposed (imposed_arcs: a path constraint's row fixed
     on them) and the refinement meets 1e-6 on the closed form F = clip(c (T/2 - t), -FMAX, FMAX), c by bisection on a
-    400,001-point quadrature of x(T) = D (before: the kinks at its junctions held such a bound near 1e-5)."""
+    400,001-point quadrature of x(T) = D (before: the kinks at its junctions held such a bound near 1e-5). ``zero``:
+    the same bound as two constraints bounded at zero (moment - H FMAX <= 0, moment + H FMAX >= 0), whose junctions
+    were once placed against a scale of 1e-12 (a bound at zero has no magnitude of its own)."""
     from scipy.optimize import brentq
 
     m, dist, t_final, f_max, h = 1.5, 0.8, 1.2, 4.0, 0.1
@@ -214,7 +217,12 @@ def test_a_path_constraint_that_moves_with_the_input_has_its_arcs_imposed_agains
     problem = OptimalControlProblem(model, t_final=t_final)
     problem.initial({"block.x": 0.0, "block.vbar_x": 0.0})
     problem.final({"block.x": dist, "block.vbar_x": 0.0})
-    problem.subject_to(problem.multiplier("rail.w3"), -h * f_max, h * f_max, "rail moment")
+    moment = problem.multiplier("rail.w3")
+    if form == "bounds":
+        problem.subject_to(moment, -h * f_max, h * f_max, "rail moment")
+    else:
+        problem.subject_to(moment - h * f_max, -np.inf, 0.0, "rail moment, upper")
+        problem.subject_to(moment + h * f_max, 0.0, np.inf, "rail moment, lower")
     problem.minimize_effort(["F"])
     sol = problem.solve(tolerance=1e-6)
     record = sol.mesh_refinement
@@ -231,6 +239,9 @@ def test_a_path_constraint_that_moves_with_the_input_has_its_arcs_imposed_agains
     assert true_speed <= record["estimate"]["states"]
     moment = np.abs(sol.interpolate("rail.w3.lambda", grid[1:]) - h * np.interp(grid[1:], tt, force)).max()
     assert moment <= record["estimate"]["multipliers"] * record["load_scale"]
+    t1 = t_final / 2 - f_max / c            # where c (T/2 - t) reaches FMAX
+    [first, second] = record["input_arcs"]
+    assert first["end"] == pytest.approx(t1, abs=1e-6) and second["start"] == pytest.approx(t_final - t1, abs=1e-6)
 
 
 def test_short_arcs_at_the_ends_are_imposed_and_meet_1e_6_against_the_closed_form():

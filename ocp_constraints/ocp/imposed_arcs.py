@@ -321,20 +321,29 @@ def find_arcs(solution) -> tuple[list[Arc], dict[str, float]]:
                     start = end = 0.5 * (start + end)
                 via = _kinking_input(solution, sorted(smooth), start)
                 arcs.append(Arc(name, float(lo if s[i] < 0 else hi), start, end, state=True, via=via))
-                scale[name] = max([abs(b) for b in (lo, hi) if np.isfinite(b)] + [1e-12])
+                scale[name] = _scale(v, lo, hi)
                 scale[via] = _input_scale(solution, pr, via)
                 continue
             start = 0.0 if i <= 1 else _nearest(at, t[i - 1], t[i])
             end = 1.0 if j == len(t) - 1 else _nearest(at, t[j], t[j + 1])
             arcs.append(Arc(name, float(lo if s[i] < 0 else hi), start, end, path))
-            scale[name] = max([abs(b) for b in (lo, hi) if np.isfinite(b)] + [1e-12])
+            scale[name] = _scale(v, lo, hi)
     return arcs, scale
+
+
+def _scale(values: np.ndarray, lo: float, hi: float) -> float:
+    """A bounded quantity's scale: its bounds' largest magnitude, else (no bound but zero) its largest value. A bound
+    at zero has no magnitude of its own: the walker's centre of pressure (ankle torque less half the foot times the
+    normal force, <= 0) scaled by 1e-12 asked its junction's mismatch to 1e-18 N m, below what a junction's time can
+    resolve in double precision, and each refinement spent its 12 secant steps in vain (a 240 s cap hit at 1e-4)."""
+    bounds = [abs(b) for b in (lo, hi) if np.isfinite(b) and b != 0.0]
+    return max(bounds or [float(np.abs(np.asarray(values, float)).max())] + [1e-12])
 
 
 def _input_scale(solution, pr, name: str) -> float:
     """An input's bounds' largest magnitude, else its largest value on ``solution``."""
-    bounds = [abs(b) for b in pr.bounds.get(name, ()) if np.isfinite(b)]
-    return max(bounds or [float(np.abs(np.asarray(solution.sample(name), float)).max())] + [1e-12])
+    lo, hi = pr.bounds.get(name, (-np.inf, np.inf))
+    return _scale(np.asarray(solution.sample(name), float).ravel(), lo, hi)
 
 
 def _kinking_input(solution, inputs: list[str], at: float) -> str:
