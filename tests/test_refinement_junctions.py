@@ -266,3 +266,27 @@ def test_short_arcs_at_the_ends_are_imposed_and_meet_1e_6_against_the_closed_for
     grid = np.linspace(0.0, t_final, 4001)[1:]
     torque = np.clip(c * (t_final / 2 - grid), -tau_max, tau_max)
     assert np.abs(sol.interpolate("motor", grid) - torque).max() <= record["estimate"]["inputs"] * tau_max
+
+
+def test_an_arc_found_on_a_barely_resolved_mesh_is_tried_again_once_the_estimate_has_fallen():
+    """A newcomer's cart-pole swing-up (scripts/newcomer_problems.py) under a bound on the hinge's force: its arc is
+    first found on meshes whose estimates are 2.2 and 0.95, where the secant cannot place its junctions; tried once
+    only, it was never imposed, and 1e-4 took 1,583 points of intervals split one by one at the junctions. Tried again
+    when the estimate has fallen tenfold (junction_times.RETRY_DROP), the arc is imposed and 1e-4 is met."""
+    m_cart, m_pole, length, t_final, f_max = 1.0, 0.5, 1.0, 2.0, 12.0
+    model = Model("cart_pole_joints", gravity=(0, -9.81, 0))
+    cart = model.add_body("cart", m_cart, 0.01 * np.eye(3), rotation="321")
+    pole = model.add_body("pole", m_pole, np.diag([m_pole * length ** 2 / 12, 1e-4, m_pole * length ** 2 / 12]),
+                          rotation="321")
+    joints.prismatic(model, "rail", cart.com, axis=(1, 0, 0))
+    joints.revolute(model, "hinge", pole.point("A", (0, length / 2, 0)), axis=(0, 0, 1), other=cart.com)
+    model.add_force("push", cart.com, ca.vertcat(model.add_input("push"), 0, 0))
+    problem = OptimalControlProblem(model, t_final=t_final)
+    problem.initial({"cart.x": 0.0, "pole.psi": 0.0, "cart.vbar_x": 0.0, "pole.omega_z": 0.0})
+    problem.final({"cart.x": 0.0, "pole.psi": np.pi, "cart.vbar_x": 0.0, "pole.omega_z": 0.0})
+    problem.minimize_effort()
+    problem.subject_to(ca.sumsqr(problem.joint_force("hinge@pole")), -np.inf, f_max ** 2, "hinge force")
+    record = problem.solve(tolerance=1e-4).mesh_refinement
+    assert record["met"], record["message"]
+    [arc] = record["input_arcs"]
+    assert arc["quantity"] == "hinge force" and arc["value"] == f_max ** 2 and 0.0 < arc["start"] < arc["end"] < t_final

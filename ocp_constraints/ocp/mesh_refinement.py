@@ -47,7 +47,7 @@
    (:func:`.nonsmooth.flag_nonsmooth`): there the companion is no upper bound;
 6. where an input with an effort term (or a path constraint moving with such inputs) rides its bound and the estimate
    is resolved but not met: its arcs imposed and their junctions made mesh points at the roots of its continuity
-   mismatch (:mod:`.junction_times`; each arc structure tried once);
+   mismatch (:mod:`.junction_times`; each arc structure tried once, and again where the estimate has fallen 10x);
 7. stop ("met" not claimed) when more points no longer pay: a second stall, one with no progress, or a run of small
    steps that never lowered the estimate (:mod:`.mesh_progress`); a refinement that ends "not met" returns the
    solution with the lowest estimate it saw (:func:`.mesh_progress.lowest_estimate`), not always its last.
@@ -185,7 +185,7 @@ def _refine(problem, tolerance, method, ipopt_options, warm_start, progress, max
     score, best = np.inf, (np.inf, None, None, None, ())   # the last estimated solution's largest gated estimate; the lowest
     warm_options = {**WARM_IPOPT, **options}    # capped once the first mesh's cold solve has said how hard it is
     fallback, previous, scale = options, None, False     # previous: the last solution whose error was estimated
-    arcs, tried = None, set()      # arcs imposed (junction_times.ArcSet), the arc structures tried
+    arcs, tried = None, {}        # arcs imposed (junction_times.ArcSet), the arc structures tried (their estimates)
 
     def warm_solve(mesh, start):    # -> solution, wall, CPU, its mesh (junctions moved where arcs are imposed), arcs
         if arcs:
@@ -311,7 +311,7 @@ def _refine(problem, tolerance, method, ipopt_options, warm_start, progress, max
             break
         if arcs is None and est.resolved:       # arcs on a bound imposed, each structure tried once (junction_times)
             if (aligned := align_junctions(problem, scheme, sol, tol, warm_options, progress, first, fallback, scale,
-                                           tried)):
+                                           tried, score)):
                 solved, _, entry["arcs_cpu_s"], scheme, arcs = aligned
                 warm, parents, at_hand[:] = solved, None, [solved]
                 entry["input_arcs"] = described(arcs.arcs, solved.t_final)
