@@ -14,6 +14,7 @@ import argparse
 import itertools
 import json
 import shutil
+import signal
 import subprocess
 import sys
 import threading
@@ -267,9 +268,15 @@ def test_ctrl_c_leaves_a_consistent_table_and_resume_finishes(client, tmp_path, 
         _thread.interrupt_main()   # what Ctrl-C does
 
     t = threading.Thread(target=interrupt_after_first_run, daemon=True)
-    t.start()
-    with pytest.raises(KeyboardInterrupt):
-        run_batch(spec, out, client=client, progress=False)
+    # Ctrl-C as an interactive shell delivers it: interrupt_main does nothing where SIGINT is ignored (a job
+    # started in the background, as under nohup)
+    previous = signal.signal(signal.SIGINT, signal.default_int_handler)
+    try:
+        t.start()
+        with pytest.raises(KeyboardInterrupt):
+            run_batch(spec, out, client=client, progress=False)
+    finally:
+        signal.signal(signal.SIGINT, previous)
     t.join()
     rows = read_table(out)
     assert len(rows) == 4 and json.loads((out / "batch.json").read_text())["interrupted"] is True
