@@ -38,7 +38,7 @@ import numpy as np
 
 from .schemes import Radau
 from .switch_detection import activity, bounded_quantities, detect_switches, penalized_inputs
-from .transcription_elements import path_scale, single_speed
+from .transcription_elements import path_scale, rate_row, single_speed, state_row
 
 
 @dataclass(frozen=True)
@@ -108,16 +108,6 @@ def moves_with_inputs(solution, label: str, at: np.ndarray) -> bool:
             if abs(float(np.asarray(path(X[:, i], L[:, i], w, solution.t[i]))[j, 0]) - base) / step * span[k] > 1e-3:
                 return True
     return False
-
-
-def state_row(name: str) -> str:
-    """The label of the path row that holds a bound on state ``name`` in joint coordinates (.joint_transcription)."""
-    return f"bound on {name}"
-
-
-def rate_row(name: str) -> str:
-    """The label of the free path row of a bounded coordinate's rate in joint coordinates (.joint_transcription)."""
-    return f"rate of {name}"
 
 
 def on_rows(tr, arc: Arc) -> bool:

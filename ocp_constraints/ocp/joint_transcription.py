@@ -31,6 +31,7 @@ from .guess import consistent_guess
 from .joint_guess import JointGuess
 from .solution import OCPSolution
 from .transcription import Transcription
+from .transcription_elements import free_rate_row, state_row
 from ..dynamics.trajectory import Trajectory
 
 
@@ -47,14 +48,12 @@ class ReducedProblem:
         # Body coordinates and speeds are expressions here, not variables: their bounds are path rows.
         self.state_bounds = {n: b for n, b in problem.bounds.items() if n in names}
         for n, (lo, hi) in self.state_bounds.items():
-            self.path_constraints.append(SimpleNamespace(label=f"bound on {n}", expression=self.translate(problem.quantity(n)),
+            self.path_constraints.append(SimpleNamespace(label=state_row(n), expression=self.translate(problem.quantity(n)),
                                                          lower=lo, upper=hi, scale=1.0))
-        # A bounded coordinate's rate, a free row: where a refinement imposes an arc on the bound it is held at zero at
-        # the arc's entry, which the coordinate reaches tangentially (.imposed_arcs).
+        # A bounded coordinate's rate, a free row (free_rate_row).
         for n in self.state_bounds:
             if n in problem.model.coordinate_names:
-                self.path_constraints.append(SimpleNamespace(label=f"rate of {n}", scale=1.0, lower=-np.inf, upper=np.inf,
-                                                             expression=self.translate(problem.quantity(f"{n}_dot"))))
+                self.path_constraints.append(free_rate_row(n, self.translate(problem.quantity(f"{n}_dot"))))
 
     def __getattr__(self, name):
         return getattr(self.original, name)

@@ -164,20 +164,21 @@ def align_junctions(problem, scheme, solution, tol: float, options: dict, progre
     """The first imposition of ``solution``'s arcs (:func:`solve_on_arcs` from their located junctions):
     ``(solution, wall s, CPU s, mesh, arc_set)``, or None where there is no inner junction, a step is not solved, the
     steps do not converge or the arcs are not found to hold (module notes). ``tried``: the arc structures tried before
-    (quantity, value, inner start, inner end of each arc) with the estimate ``score`` each was tried at, :data:`TRIES`
-    in all, and each tried again once where the estimate has fallen by :data:`RETRY_DROP` since; this one is added. A
+    (quantity, value, inner start, inner end of each arc) with the estimate ``score`` each was tried at (None once
+    tried again), :data:`TRIES` in all, each tried again once where the estimate has fallen by :data:`RETRY_DROP`
+    since; this one is added. A
     finer mesh can show an arc the first did not (a rod whose torque sits on its bound for the first 0.5% of the
     horizon: no collocation point of the first mesh falls there)."""
     arcs, scale = find_arcs(solution)
     structure = tuple((a.quantity, a.value, a.start > 0.0, a.end < 1.0, is_touch(a)) for a in arcs)
-    retry = ("again", structure)
-    if not inner_junctions(arcs) or retry in tried:
+    if not inner_junctions(arcs):
         return None
     if structure in tried:
-        if not score <= RETRY_DROP * tried[structure]:
+        last = tried[structure]
+        if last is None or not score <= RETRY_DROP * last:
             return None
-        tried[retry] = score
-    elif sum(key[0] != "again" for key in tried) >= TRIES:
+        tried[structure] = None
+    elif len(tried) >= TRIES:
         return None
     else:
         tried[structure] = score

@@ -309,7 +309,7 @@ def _refine(problem, tolerance, method, ipopt_options, warm_start, progress, max
                                       f"{spots} of the horizon")
             flag_nonsmooth(sol, tol, record, smoothness, windows)
             break
-        if arcs is None and est.resolved:       # arcs on a bound imposed, each structure tried once (junction_times)
+        if arcs is None and est.resolved:       # arcs on a bound imposed (junction_times.align_junctions: which are tried)
             if (aligned := align_junctions(problem, scheme, sol, tol, warm_options, progress, first, fallback, scale,
                                            tried, score)):
                 solved, _, entry["arcs_cpu_s"], scheme, arcs = aligned

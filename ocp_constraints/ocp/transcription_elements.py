@@ -42,8 +42,7 @@ class ElementKinds:
             pr, rows = self.problem, list(self.problem.path_constraints)
             if self.rate_rows:
                 names = pr.model.coordinate_names
-                rows += [SimpleNamespace(label=f"rate of {n}", expression=pr.quantity(f"{n}_dot"), lower=-np.inf,
-                                         upper=np.inf, scale=1.0)
+                rows += [free_rate_row(n, pr.quantity(f"{n}_dot"))
                          for n in pr.bounds if n in names and single_speed(pr.eqs, names.index(n)) is None]
             kept = self.__dict__["_nlp_path"] = rows
         return kept
@@ -296,6 +295,23 @@ def path_scale(constraint) -> float:
     user's units."""
     return max([1.0, float(constraint.scale)]
                + [abs(float(b)) for b in (constraint.lower, constraint.upper) if np.isfinite(b)])
+
+
+def state_row(name: str) -> str:
+    """The label of the path row that holds a bound on state ``name`` in joint coordinates (.joint_transcription)."""
+    return f"bound on {name}"
+
+
+def rate_row(name: str) -> str:
+    """The label of the free path row of bounded coordinate ``name``'s rate (.joint_transcription, and
+    :attr:`ElementKinds.nlp_path_constraints` in the maximal form)."""
+    return f"rate of {name}"
+
+
+def free_rate_row(name: str, rate) -> SimpleNamespace:
+    """A free path row (no bounds) of coordinate ``name``'s ``rate``: a refinement holds it at zero at the entry of an
+    arc on the coordinate's bound, which the coordinate reaches tangentially (.imposed_arcs)."""
+    return SimpleNamespace(label=rate_row(name), expression=rate, lower=-np.inf, upper=np.inf, scale=1.0)
 
 
 def single_speed(eqs, i: int) -> int | None:
