@@ -300,3 +300,36 @@ def test_an_arc_found_on_a_barely_resolved_mesh_is_tried_again_once_the_estimate
     assert arc["quantity"] == "hinge force" and arc["value"] == f_max ** 2
     assert arc["start"] / t_final == pytest.approx(0.3466153, abs=3e-6)
     assert arc["end"] / t_final == pytest.approx(0.5004325, abs=3e-6)
+
+
+def test_a_path_constraint_whose_input_derivative_vanishes_on_its_arc_is_not_imposed_there():
+    """A least-time crane (a trolley pulled by a bounded force, a load on a rigid rope) whose rope tension rides its
+    bound on three arcs. On the middle one the load swings through plumb: there the rope is vertical and the trolley's
+    horizontal force cannot change its tension to first order (d(T^2)/dF = 0, the mixed constraint is not regular),
+    so held as an equality its row's gradient vanishes and the imposed NLP is singular (MUMPS took 166 s of CPU to
+    fail one step). The outer arcs, where the rope is slanted all along, are imposed; the middle one is not."""
+    from ocp_constraints.ocp.imposed_arcs import find_arcs, path_values
+
+    m_trolley, m_load, length, d, f_max, tension = 10.0, 50.0, 3.0, 2.0, 200.0, 1.05
+    model = Model("crane", gravity=(0, -9.81, 0))
+    trolley = model.add_body("trolley", m_trolley, 0.1 * np.eye(3), rotation="321")
+    load = model.add_body("load", m_load, 0.5 * np.eye(3), rotation="321")
+    joints.prismatic(model, "rail", trolley.com, axis=(1, 0, 0))
+    joints.revolute(model, "rope", load.point("hook", (0, length, 0)), other=trolley.com)
+    model.add_force("drive", trolley.com, ca.vertcat(model.add_input("F"), 0, 0))
+    problem = OptimalControlProblem(model, t_final=4.0, t_final_bounds=(0.5, 20.0))
+    problem.initial({"trolley.x": 0.0, "load.psi": 0.0, "trolley.vbar_x": 0.0, "load.omega_z": 0.0})
+    problem.final({"trolley.x": d, "load.psi": 0.0, "trolley.vbar_x": 0.0, "load.omega_z": 0.0})
+    problem.bound("F", -f_max, f_max)
+    problem.bound("load.psi", -0.3, 0.3)
+    problem.subject_to(ca.sumsqr(problem.joint_force("rope@load")), -np.inf, (tension * m_load * 9.81) ** 2,
+                       "rope tension")
+    problem.minimize_final_time()
+    problem.minimize_effort(weight=1e-6)
+    sol = problem.solve(Radau(40, degree=3))
+    rope = [a for a in find_arcs(sol)[0] if a.quantity == "rope tension"]
+    psi, fractions = np.asarray(sol.sample("load.psi")).ravel(), np.asarray(sol.transcription.fractions)
+    plumb = fractions[np.flatnonzero(np.diff(np.sign(psi[1:])) != 0)[0] + 1]     # where the swing changes sign
+    k = int(np.argmin(np.abs(fractions - plumb)))
+    assert path_values(sol)["rope tension"][k] == pytest.approx((tension * m_load * 9.81) ** 2, rel=1e-4)    # on its bound
+    assert len(rope) == 2 and all(not a.start <= plumb <= a.end for a in rope), (rope, plumb)

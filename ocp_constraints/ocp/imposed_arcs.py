@@ -60,6 +60,7 @@ class Arc:
 # Arcs, junctions and meshes are in fractions of the horizon (``tr.fractions``), so that a free final time stretches
 # them with the mesh; EPS: two fractions closer than this are one.
 EPS = 1e-9
+REGULAR = 1e-3      # a path row's scaled derivative in the inputs below this: it does not move with them there
 
 
 def _input_columns(tr, name: str) -> np.ndarray:
@@ -85,13 +86,9 @@ def path_rows(tr, label: str) -> np.ndarray | None:
     return np.asarray(rows)
 
 
-def moves_with_inputs(solution, label: str, at: np.ndarray) -> bool:
-    """Whether path constraint ``label`` changes with the inputs at points ``at`` (its row's derivative in them, times
-    their scale, over 1e-3 of its own): leaving its bound it then turns with them, transversally, and its mismatch at a
-    junction has a simple root. A load that follows the speeds alone (a hinge's centripetal pull, a speed limit seen
-    through a multiplier) leaves its bound tangentially: its mismatch is flat at the root and the secant wanders (the
-    holdouts' hinge at 1e-4: twelve steps, none converged, 15% more CPU). In maximal coordinates a multiplier is a
-    variable of its own and no row moves with the inputs: there only the inputs' arcs are imposed."""
+def input_gradients(solution, label: str, at: np.ndarray) -> np.ndarray:
+    """Path constraint ``label``'s row's derivative in each input, times the input's scale (its bounds' largest
+    magnitude, else 1), at points ``at``: one row per point (the row is in the NLP's scaling, about 1 at the bound)."""
     tr = solution.transcription
     path = tr.point_pieces[0]["path"]
     j = [c.label for c in tr.nlp_path_constraints].index(label)
@@ -99,15 +96,37 @@ def moves_with_inputs(solution, label: str, at: np.ndarray) -> bool:
     pr = getattr(tr, "user_problem", tr.problem)
     span = np.array([max([abs(b) for b in pr.bounds.get(n, (np.nan, np.nan)) if np.isfinite(b)] + [1.0])
                      for n in pr.model.inputs])
-    for i in at:
+    out = np.zeros((len(at), W.shape[0]))
+    for r, i in enumerate(at):
         base = float(np.asarray(path(X[:, i], L[:, i], W[:, i], solution.t[i]))[j, 0])
         for k in range(W.shape[0]):
-            step = 1e-6 * span[k]
             w = W[:, i].copy()
-            w[k] += step
-            if abs(float(np.asarray(path(X[:, i], L[:, i], w, solution.t[i]))[j, 0]) - base) / step * span[k] > 1e-3:
-                return True
-    return False
+            w[k] += 1e-6 * span[k]
+            out[r, k] = (float(np.asarray(path(X[:, i], L[:, i], w, solution.t[i]))[j, 0]) - base) / 1e-6
+    return out
+
+
+def moves_with_inputs(solution, label: str, at: np.ndarray) -> bool:
+    """Whether path constraint ``label`` changes with the inputs at points ``at`` (:func:`input_gradients` over
+    :data:`REGULAR`): leaving its bound it then turns with them, transversally, and its mismatch at a
+    junction has a simple root. A load that follows the speeds alone (a hinge's centripetal pull, a speed limit seen
+    through a multiplier) leaves its bound tangentially: its mismatch is flat at the root and the secant wanders (the
+    holdouts' hinge at 1e-4: twelve steps, none converged, 15% more CPU). In maximal coordinates a multiplier is a
+    variable of its own and no row moves with the inputs: there only the inputs' arcs are imposed."""
+    return bool(np.any(np.abs(input_gradients(solution, label, at)).max(axis=1) > REGULAR))
+
+
+def regular_over(solution, label: str, points: np.ndarray) -> bool:
+    """Whether path constraint ``label`` moves with the inputs all along an arc's ``points``: its scaled gradient in
+    them over :data:`REGULAR` at every point and never reversing between neighbours (through zero). That is the
+    regularity of a mixed constraint on its arc, under which the inputs there follow from it (Hartl, Sethi and
+    Vickson 1995, sec. 3). Held as an equality where it fails, its row's gradient vanishes and the imposed NLP is
+    singular: the least-time crane's rope tension, whose derivative in the drive force goes through zero mid-arc where
+    the rope hangs plumb, took MUMPS 166 s of CPU to fail one step (12 s for the whole refinement without it)."""
+    g = input_gradients(solution, label, points)
+    if np.any(np.abs(g).max(axis=1) <= REGULAR):
+        return False
+    return bool(np.all(np.sum(g[1:] * g[:-1], axis=1) > 0.0))
 
 
 def on_rows(tr, arc: Arc) -> bool:
@@ -313,6 +332,8 @@ def find_arcs(solution) -> tuple[list[Arc], dict[str, float]]:
                 arcs.append(Arc(name, float(lo if s[i] < 0 else hi), start, end, state=True, via=via))
                 scale[name] = _scale(v, lo, hi)
                 scale[via] = _input_scale(solution, pr, via)
+                continue
+            if path and not regular_over(solution, name, np.arange(max(i, 1), j + 1)):
                 continue
             start = 0.0 if i <= 1 else _nearest(at, t[i - 1], t[i])
             end = 1.0 if j == len(t) - 1 else _nearest(at, t[j], t[j + 1])

@@ -37,6 +37,8 @@ TRIES = 2
 # hinge-force bound, its arc tried at estimates 2.2 and 0.95 and never again: 1e-4 met on 1,583 points in 28 s of CPU;
 # tried again at 0.04, on 624 points in 4 s.
 RETRY_DROP = 0.1
+# The first imposition's solves: IPOPT's CPU capped at CAP_FACTOR times the located solution's own solve, MIN_CAP_S at least.
+CAP_FACTOR, MIN_CAP_S = 20.0, 2.0
 # A secant step after which the largest mismatch has grown more than GROWTH-fold is halved, up to HALVINGS times in a row.
 GROWTH, HALVINGS = 2.0, 3
 
@@ -203,9 +205,14 @@ def align_junctions(problem, scheme, solution, tol: float, options: dict, progre
         return None
     else:
         tried[structure] = score
+    # Each step's IPOPT capped in CPU (unless the options cap it): an imposed NLP whose arcs fix one another can be
+    # singular, and MUMPS then spends minutes per solve to fail (the least-time crane at 1e-4: a step of 52 intervals,
+    # 'Infeasible_Problem_Detected' after 166 s of CPU, where the whole refinement takes 12).
+    # And a step IPOPT does not solve is not solved again with the fallback options: it ends the try.
+    options = {"ipopt.max_cpu_time": max(MIN_CAP_S, CAP_FACTOR * float(sum(solution.wall_time.values()))), **options}
     try:
         sol, wall, cpu, mesh, arc_set, converged = solve_on_arcs(problem, scheme, ArcSet(tuple(arcs), scale), tol, options,
-                                                                 solution, progress, first, fallback, scale_objective)
+                                                                 solution, progress, first, None, scale_objective)
     except OCPSolveError:
         return None
     return (sol, wall, cpu, mesh, arc_set) if converged and holds(sol, arc_set.arcs, scale, tol) else None
