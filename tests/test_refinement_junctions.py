@@ -11,6 +11,7 @@ import pytest
 
 from ocp_constraints import Model, OptimalControlProblem, joints
 from ocp_constraints.ocp.error_estimate import compare, names, sample_grid, values_at
+from ocp_constraints.ocp.imposed_arcs import find_arcs, path_values
 from ocp_constraints.ocp.mesh_refinement import solve_to_tolerance
 from ocp_constraints.ocp.schemes import Radau
 
@@ -308,8 +309,6 @@ def test_a_path_constraint_whose_input_derivative_vanishes_on_its_arc_is_not_imp
     horizontal force cannot change its tension to first order (d(T^2)/dF = 0, the mixed constraint is not regular),
     so held as an equality its row's gradient vanishes and the imposed NLP is singular (MUMPS took 166 s of CPU to
     fail one step). The outer arcs, where the rope is slanted all along, are imposed; the middle one is not."""
-    from ocp_constraints.ocp.imposed_arcs import find_arcs, path_values
-
     m_trolley, m_load, length, d, f_max, tension = 10.0, 50.0, 3.0, 2.0, 200.0, 1.05
     model = Model("crane", gravity=(0, -9.81, 0))
     trolley = model.add_body("trolley", m_trolley, 0.1 * np.eye(3), rotation="321")

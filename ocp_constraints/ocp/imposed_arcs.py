@@ -2,7 +2,7 @@
 
 An input with an effort term (a torque limit on a motor whose ``tau^2`` is minimized) that reaches its bound rides it
 over an arc and leaves it continuously, with a kink, at each *junction*; so does a path constraint that moves with
-such inputs (a hinge-force bound on that motor's rod, :func:`moves_with_inputs`). With the bound as an inequality, two
+such inputs (a hinge-force bound on that motor's rod, :func:`regular_over`). With the bound as an inequality, two
 things keep the NLP about 1e-5 from the optimum, however fine the mesh (the torque-limited rod of
 ``examples/torque_limited_rod.py``; ``python scripts/junction_at_mesh_point.py``):
 
@@ -106,23 +106,20 @@ def input_gradients(solution, label: str, at: np.ndarray) -> np.ndarray:
     return out
 
 
-def moves_with_inputs(solution, label: str, at: np.ndarray) -> bool:
-    """Whether path constraint ``label`` changes with the inputs at points ``at`` (:func:`input_gradients` over
-    :data:`REGULAR`): leaving its bound it then turns with them, transversally, and its mismatch at a
-    junction has a simple root. A load that follows the speeds alone (a hinge's centripetal pull, a speed limit seen
-    through a multiplier) leaves its bound tangentially: its mismatch is flat at the root and the secant wanders (the
-    holdouts' hinge at 1e-4: twelve steps, none converged, 15% more CPU). In maximal coordinates a multiplier is a
-    variable of its own and no row moves with the inputs: there only the inputs' arcs are imposed."""
-    return bool(np.any(np.abs(input_gradients(solution, label, at)).max(axis=1) > REGULAR))
-
-
 def regular_over(solution, label: str, points: np.ndarray) -> bool:
     """Whether path constraint ``label`` moves with the inputs all along an arc's ``points``: its scaled gradient in
-    them over :data:`REGULAR` at every point and never reversing between neighbours (through zero). That is the
-    regularity of a mixed constraint on its arc, under which the inputs there follow from it (Hartl, Sethi and
-    Vickson 1995, sec. 3). Held as an equality where it fails, its row's gradient vanishes and the imposed NLP is
-    singular: the least-time crane's rope tension, whose derivative in the drive force goes through zero mid-arc where
-    the rope hangs plumb, took MUMPS 166 s of CPU to fail one step (12 s for the whole refinement without it)."""
+    them (:func:`input_gradients`) over :data:`REGULAR` at every point and never reversing between neighbours (through
+    zero). That is the regularity of a mixed constraint on its arc, under which the inputs there follow from it
+    (Hartl, Sethi and Vickson 1995, sec. 3); leaving its bound it then turns with them, transversally, and its mismatch
+    at a junction has a simple root. Where it fails:
+
+    - a load that follows the speeds alone (a hinge's centripetal pull, a speed limit seen through a multiplier)
+      leaves its bound tangentially: its mismatch is flat at the root and the secant wanders (the holdouts' hinge at
+      1e-4: twelve steps, none converged, 15% more CPU); in maximal coordinates a multiplier is a variable of its own
+      and no row moves with the inputs: there only the inputs' arcs are imposed;
+    - held as an equality where the gradient vanishes, the imposed NLP is singular: the least-time crane's rope
+      tension, whose derivative in the drive force goes through zero mid-arc where the rope hangs plumb, took MUMPS
+      166 s of CPU to fail one step (12 s for the whole refinement without it)."""
     g = input_gradients(solution, label, points)
     if np.any(np.abs(g).max(axis=1) <= REGULAR):
         return False
@@ -307,8 +304,7 @@ def find_arcs(solution) -> tuple[list[Arc], dict[str, float]]:
             if not every_input or (on_path_rows and path_rows(tr, state_row(name)) is None) or (
                     name in pr.model.coordinate_names and entry_rate(tr, name) is None):
                 continue
-        elif (name not in smooth) if not path else (not every_input or path_rows(tr, name) is None
-                                                     or not moves_with_inputs(solution, name, np.flatnonzero(s)[:3])):
+        elif (name not in smooth) if not path else (not every_input or path_rows(tr, name) is None):
             continue
         runs = np.flatnonzero(np.diff(np.concatenate([[0], (s != 0).astype(int), [0]])))
         for i, j in zip(runs[::2], runs[1::2] - 1):
