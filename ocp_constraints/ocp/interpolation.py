@@ -3,11 +3,14 @@
 One matrix ``E`` maps the values at every point of a transcription to values at any normalized
 times, ``values(fractions) = E @ point_values``; an hp mesh (each interval its own degree) needs no
 special case. Used by :meth:`OCPSolution.interpolate`, warm starts on another mesh and the error
-estimate (:mod:`ocp_constraints.ocp.error_estimate`).
+estimate (:mod:`ocp_constraints.ocp.error_estimate`). Inputs and multipliers that jump at a mesh point
+are read from the interval's own points after it (:func:`jumps_at_starts`, ``algebraic``).
 """
 from __future__ import annotations
 
 import numpy as np
+
+from .schemes import Radau
 
 
 def lagrange_basis(nodes: np.ndarray, s: np.ndarray) -> np.ndarray:
@@ -19,23 +22,80 @@ def lagrange_basis(nodes: np.ndarray, s: np.ndarray) -> np.ndarray:
     return np.where(eye[None], 1.0, num / den[None]).prod(axis=2)
 
 
-def interpolation_matrix(transcription, fractions) -> np.ndarray:
-    """``E`` (``len(fractions) x points``) at normalized times ``fractions`` in ``[0, 1]``."""
+def interval_of(transcription, fractions, ending: bool = False) -> np.ndarray:
+    """The mesh interval of each normalized time. A mesh point: the interval it starts, or with ``ending``
+    the one it ends (whose last collocation point it is); 0 and 1: the first and the last."""
+    mesh = transcription.scheme.mesh_fractions
+    side = "left" if ending else "right"
+    return np.clip(np.searchsorted(mesh, fractions, side=side) - 1, 0, transcription.scheme.intervals - 1)
+
+
+def algebraic_points(transcription, k: int) -> np.ndarray:
+    """The points that carry interval ``k``'s inputs and multipliers: its points, less its start where that
+    is the previous Radau interval's last collocation point (see :func:`interpolation_matrix`)."""
+    points = np.asarray(transcription.interval_points(k))
+    return points[1:] if k > 0 and isinstance(transcription.local[k], Radau) else points
+
+
+def jumps_at_starts(transcription, values: np.ndarray) -> np.ndarray:
+    """Per interval: whether ``values`` (one per point: an input or a multiplier) jump at its start
+    (by more than 1e-6 of their largest size: below that both readings agree to as much).
+
+    A Radau interval's start carries the previous interval's last collocation value. Where the quantity is
+    smooth there, that value is the most accurate of all (order ``2d - 1`` at mesh points) and the
+    polynomial through it is the better one. Where it jumps there (a bang-bang input switching at a mesh
+    point), the interval's own polynomial, extrapolated to its start, misses that value by the jump. The
+    test: the miss exceeds the spread of the interval's own values (a jump between bounds: the whole jump
+    against a spread of zero; a smooth quantity: the polynomial's error, far below its change over the
+    interval)."""
+    tr = transcription
+    values = np.asarray(values, dtype=float)
+    out = np.zeros(tr.scheme.intervals, bool)
+    floor = 1e-6 * float(np.abs(values).max(initial=0.0))
+    mesh = tr.scheme.mesh_fractions
+    labels = np.array([tr.local[k].label if isinstance(tr.local[k], Radau) else "" for k in range(len(out))])
+    labels[0] = ""                              # the first interval's start is its own point
+    for label in set(labels) - {""}:            # intervals of one degree share their local nodes: one basis
+        ks = np.flatnonzero(labels == label)
+        idx = np.asarray(tr.interval_points(int(ks[0])))
+        nodes = (tr.fractions[idx] - mesh[ks[0]]) / (mesh[ks[0] + 1] - mesh[ks[0]])
+        weights = lagrange_basis(nodes[1:], np.zeros(1))[0]
+        own = values[tr.offsets[ks][:, None] + np.arange(1, len(idx))[None, :]]
+        miss = np.abs(own @ weights - values[tr.offsets[ks]])
+        out[ks] = miss > np.maximum(np.ptp(own, axis=1), floor)
+    return out
+
+
+def interpolation_matrix(transcription, fractions, algebraic: bool = False) -> np.ndarray:
+    """``E`` (``len(fractions) x points``) at normalized times ``fractions`` in ``[0, 1]``.
+
+    ``algebraic`` (inputs and multipliers): on a Radau interval after the first, the polynomial through
+    the interval's own collocation points only, not its start, and a mesh point read as the end of the
+    interval it closes (its value is that interval's). That start is the previous interval's last collocation
+    point: the dynamics there belong to that interval, and an input or multiplier that jumps at the
+    mesh point is exact on both sides only this way (through the start, a bang-bang torque read +0.53
+    where every point of the interval held -1). The states are continuous and keep the start.
+    """
     tr = transcription
     fractions = np.atleast_1d(np.asarray(fractions, dtype=float))
     mesh = tr.scheme.mesh_fractions
-    k_of = np.clip(np.searchsorted(mesh, fractions, side="right") - 1, 0, tr.scheme.intervals - 1)
+    k_of = interval_of(tr, fractions, ending=algebraic)
     E = np.zeros((len(fractions), tr.layout.n_points))
     # Intervals of one local scheme share their nodes in local time (0 at the interval's start, 1 at
     # its end): one basis evaluation for all their rows (a loop per interval cost ~3 ms a matrix).
     local_of = np.array([tr.local[k].label for k in range(tr.scheme.intervals)])
-    for label in np.unique(local_of[k_of]):
-        rows = np.flatnonzero(local_of[k_of] == label)
+    radau = np.array([isinstance(tr.local[k], Radau) for k in range(tr.scheme.intervals)])
+    # The first interval's start is its own point (the dynamics hold there too): a group of its own.
+    group_of = np.array([f"{label}|{algebraic and radau[k] and k > 0}" for k, label in enumerate(local_of)])
+    for group in np.unique(group_of[k_of]):
+        rows = np.flatnonzero(group_of[k_of] == group)
         k = k_of[rows]
-        first = int(np.flatnonzero(local_of == label)[0])
+        first = int(np.flatnonzero(group_of == group)[0])
         idx0 = np.asarray(tr.interval_points(first))
         nodes = (tr.fractions[idx0] - mesh[first]) / (mesh[first + 1] - mesh[first])
         local = (fractions[rows] - mesh[k]) / (mesh[k + 1] - mesh[k])
         cols = tr.offsets[k][:, None] + np.arange(len(idx0))[None, :]
+        if group.endswith("|True"):
+            nodes, cols = nodes[1:], cols[:, 1:]
         E[rows[:, None], cols] = lagrange_basis(nodes, local)
     return E

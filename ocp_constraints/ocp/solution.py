@@ -16,6 +16,7 @@ import numpy as np
 from ..dynamics.result import Result
 from ..dynamics.trajectory import Trajectory
 from ..errors import JumpWindowWarning, ModelError
+from .interpolation import algebraic_points, interval_of, jumps_at_starts
 
 
 @dataclass
@@ -104,25 +105,31 @@ class OCPSolution(Result):
         return cached[1] @ self.sample(name)
 
     def interpolate(self, name: str, times) -> np.ndarray:
-        """A named quantity at ``times`` (s) between the points: each interval's collocation polynomial
-        (:meth:`polynomial`), except for inputs and multipliers inside a jump window.
+        """A named quantity at ``times`` (s) between the points: each interval's collocation polynomial.
+
+        The polynomial through the interval's points, its start included (:meth:`polynomial`), except
+        after a mesh point where an input jumps (:func:`.interpolation.jumps_at_starts`): there the inputs
+        and multipliers come from the interval's own collocation points only. A Radau interval's start is
+        the previous interval's last collocation point; through it a bang-bang motor of +-1 N m read up to
+        1.88 N m off in an interval whose every point held -1.
 
         A refined solve (``solve(tolerance=...)``) records where a bang-bang input jumps between its
-        bounds (:meth:`jump_windows`). There an input and the multipliers jump, and the polynomial through
-        the window's points overshoots (a torque bounded by 0.9 read -1.47, a hinge force was off by the
-        largest load). Inside a window these are linear between the neighbouring points instead (within
-        their values: no overshoot), with an :class:`~ocp_constraints.errors.JumpWindowWarning` naming the
-        window; the estimate leaves these windows out for them. States are continuous there and keep
-        their polynomial.
+        bounds (:meth:`jump_windows`), and the estimate leaves these windows out for the inputs and
+        multipliers: a time inside one gives a :class:`~ocp_constraints.errors.JumpWindowWarning` naming
+        it. A jump located at a mesh point is exact as above. In an interval with a jump located inside it
+        (``switches_located``, ``"inside"``), a polynomial through its points overshoots (a torque bounded
+        by 0.9 read -1.47, a hinge force was off by the largest load): there the values are linear through
+        the interval's own points (within their values; held at the first one back to the interval's
+        start). States are continuous there and keep their polynomial.
         """
         values, inside, windows = self._interpolated(name, times)
         if inside.any():
             spots = ", ".join(f"{lo:.6g}-{hi:.6g} s" for lo, hi in windows[:3])
             warnings.warn(
                 f"interpolate('{name}'): {int(inside.sum())} of the times lie in a jump window ({spots}), where "
-                f"the inputs and multipliers jump between their points (a bang-bang input's switch): there the "
-                f"values are linear between the neighbouring points, and the error estimate does not cover "
-                f"them. sample('{name}') gives the points themselves", JumpWindowWarning, stacklevel=2)
+                f"the inputs and multipliers jump (a bang-bang input's switch) and the error estimate does not "
+                f"cover them; in an interval with the jump inside it the values are linear between its points. "
+                f"sample('{name}') gives the points themselves", JumpWindowWarning, stacklevel=2)
         return values
 
     def jump_windows(self) -> list[tuple[float, float]]:
@@ -143,17 +150,36 @@ class OCPSolution(Result):
 
     def _interpolated(self, name: str, times) -> tuple[np.ndarray, np.ndarray, list]:
         """:meth:`interpolate`'s values, which times fell inside a jump window, and the windows (s)."""
+        traj, tr = self.trajectory, self.transcription
         values = self.polynomial(name, times)
         times = self._within_horizon(name, times)
         windows = self.jump_windows()
         inside = np.zeros(times.shape, bool)
-        traj = self.trajectory
-        if windows and (name in traj.multiplier_columns() or name in traj.input_columns()):
-            for lo, hi in windows:
-                inside |= (times > lo) & (times < hi)
-            if inside.any():
-                values = values.copy()
-                values[inside] = np.interp(times[inside], self.t, self.sample(name))
+        if not (name in traj.multiplier_columns() or name in traj.input_columns()):
+            return values, inside, windows
+        samples = self.sample(name)
+        k_of = interval_of(tr, times / self.t_final, ending=True)
+        # Where an input jumps at a mesh point, every multiplier jumps with it (the accelerations do); a
+        # multiplier's own jump can hide in its spread over the interval (a hinge's centripetal part).
+        jumped = jumps_at_starts(tr, samples)
+        for u in traj.input_columns():
+            jumped |= jumps_at_starts(tr, self.sample(u))
+        jumped = jumped[k_of]
+        if jumped.any():
+            values = values.copy()
+            values[jumped] = tr.interpolation_matrix(times[jumped] / self.t_final, algebraic=True) @ samples
+        for lo, hi in windows:
+            inside |= (times > lo) & (times < hi)
+        # In an interval with a jump located inside it any polynomial overshoots: linear through its own points.
+        jumps = [w["fraction"] for w in (self.mesh_refinement or {}).get("switches_located", [])
+                 if w["kind"] == "bang-bang" and w["inside"]]
+        if inside.any() and jumps:
+            rough = set(interval_of(tr, np.asarray(jumps, float)).tolist())
+            values = values.copy()
+            for row in np.flatnonzero(inside):
+                if int(k_of[row]) in rough:
+                    used = algebraic_points(tr, int(k_of[row]))
+                    values[row] = np.interp(times[row], self.t[used], samples[used])
         return values, inside, windows
 
     def violations(self, tol: float = 1e-6, top: int = 5) -> list[tuple[str, float, float]]:
