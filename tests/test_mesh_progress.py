@@ -175,3 +175,23 @@ def test_a_refinement_out_of_refinements_advises_more_only_where_they_were_still
     assert "raised the estimate (2.8e-05 -> 6.8e-04)" in more_refinements(rising, ("states", "multipliers"))
     falling = _history((51, 1e-3), (141, 1e-4), (300, 3e-5))
     assert more_refinements(falling, ("states", "multipliers")).startswith("raise max_refinements")
+
+
+def test_a_returned_solution_on_another_local_optimum_is_said():
+    """The thirteenth newcomer's five-bar at 1e-7: J = 6.8162557 on seven meshes, 0.84027 on the last, "met" with
+    nothing said. The record now names both objectives and the refinement; a refinement that keeps its optimum (to
+    1e-6 here) is left as it was, and so is one returned at an earlier mesh (the one it compares with is before it)."""
+    from ocp_constraints.ocp.mesh_progress import optimum_changed
+
+    history = [{"refinement": k, "objective": J} for k, J in enumerate([6.8163, 6.8162557, 6.8162557, 0.84027067])]
+    record = {"history": history, "message": "estimated error at most 1e-07"}
+    optimum_changed(record)
+    assert record["optimum_changed"] == {"objective_before": 6.8162557, "objective": 0.84027067, "refinement": 3}
+    assert "refinement 3 reached another local optimum (objective 6.8162557 on the mesh before, 0.84027067 now)" \
+        in record["message"]
+    kept = {"history": history[:3], "message": "met"}
+    optimum_changed(kept)
+    assert "optimum_changed" not in kept and kept["message"] == "met"
+    earlier = {"history": history, "message": "not met", "returned_refinement": 2}
+    optimum_changed(earlier)
+    assert "optimum_changed" not in earlier

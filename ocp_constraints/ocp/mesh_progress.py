@@ -293,3 +293,27 @@ def inputs_aside(totals: dict, tol: float) -> str:
         return ""
     return (f" for the states and multipliers; the inputs' estimate is {inputs:.1e} (relative to the largest input): "
             f"they are reported, not refined on; ask a smaller tolerance where the inputs must meet this one")
+
+
+# Objectives of successive meshes further apart than this (relative) are two local optima, not one refined.
+OPTIMUM_CHANGE = 0.01
+
+
+def optimum_changed(record: dict) -> None:
+    """Say so in ``record`` where the returned solution's objective is not the earlier meshes' (more than
+    :data:`OPTIMUM_CHANGE` apart): a mesh's warm solve left the optimum the refinement had followed for another one, and
+    the estimate is of the new one alone (a thirteenth newcomer's five-bar at 1e-7: J = 6.8162557 on seven meshes, then
+    0.8403 on the last, "met" with nothing said; the new optimum is genuine, its error honest against its own reference).
+    ``"optimum_changed"``: the objectives before and after, and the refinement where it changed."""
+    history = [h for h in record.get("history", []) if h.get("objective") is not None]
+    returned = record.get("returned_refinement", history[-1]["refinement"] if history else None)
+    upto = [h for h in history if h["refinement"] <= returned] if returned is not None else []
+    if len(upto) < 2:
+        return
+    before, after = float(upto[-2]["objective"]), float(upto[-1]["objective"])
+    if abs(after - before) <= OPTIMUM_CHANGE * max(abs(before), abs(after)):
+        return
+    record["optimum_changed"] = {"objective_before": before, "objective": after, "refinement": upto[-1]["refinement"]}
+    record["message"] += (f"; note: refinement {upto[-1]['refinement']} reached another local optimum (objective "
+                          f"{before:.8g} on the mesh before, {after:.8g} now): the estimate is of this one; the earlier "
+                          f"meshes followed the other (start from a finer mesh or another guess to compare them)")

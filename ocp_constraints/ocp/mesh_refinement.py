@@ -74,7 +74,8 @@ from .junction_times import align_junctions, described, solve_on_arcs
 from .legendre_decay import DECAY_LIMIT, legendre_decay
 from .mesh_companions import (MAX_DEGREE, _degrees, _ends, as_fine, companion_of, finer, finer_at_hand, pilot_of,
                               pilot_pieces, uniform_step)
-from .mesh_progress import (gave_up, inputs_aside, interrupted, lowest_estimate, more_refinements, restarted, stall_message,
+from .mesh_progress import (gave_up, inputs_aside, interrupted, lowest_estimate, more_refinements, optimum_changed, restarted,
+                            stall_message,
                             unestimated, unresolved)
 from .mesh_solves import check_max_refinements  # noqa: F401 (problem.solve reads it here)
 from .mesh_solves import (COMPLEMENTARITY, MUMPS_SCALING, check_solver_tolerances, check_tolerance, complementarity_tolerance,
@@ -350,6 +351,7 @@ def _refine(problem, tolerance, method, ipopt_options, warm_start, progress, max
     if arcs:        # the returned solution's arcs (its own junction times)
         record["input_arcs"] = described(getattr(sol.transcription, "arcs", ()), sol.t_final) or None
     sol = record_switches(name_overshoots(lowest_estimate(record, sol, score, best, tol), record, tol), record)
+    optimum_changed(record)
     # The whole refinement's time, estimates and switch checks included (the history's times are its solves')
     record.update(total_time_s=time.perf_counter() - clock[0], total_cpu_s=time.process_time() - clock[1])
     sol.mesh_refinement = record

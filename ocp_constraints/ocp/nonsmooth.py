@@ -93,8 +93,9 @@ def _advice(sol) -> str:
     form's, and 1e-6 was still not met with mesh points there; with mesh points at the true ones, met on the first
     mesh). With a small effort term the input leaves its bounds continuously and its arcs are imposed with their
     junction times solved for (that slider with 1e-3 (up^2 + um^2): 1e-4 to 1e-7 met in 0.6-1.0 s)."""
-    pr = getattr(sol.transcription, "user_problem", sol.transcription.problem)
-    bare = sorted(set(pr.model.inputs) - penalized_inputs(sol))
+    tr = sol.transcription
+    pr = getattr(tr, "user_problem", getattr(tr, "problem", None))
+    bare = sorted(set(pr.model.inputs) - penalized_inputs(sol)) if pr is not None else []
     advice = ("Put a mesh point at the switch (Radau(mesh=...)) where you know its time closer than the tolerance "
               "needs; the times located (mesh_refinement['switches_located']) are the NLP's and can be further off")
     if bare:
