@@ -4,7 +4,7 @@ The histories are measured ones (points, largest estimate per refinement): the f
 refinement did not converge, must stop; the suite's rolling disk at 1e-3, which stalled once and then met at 246
 points, the walker's small steps at switches, and the swing-up's and acrobot's converging steps must go on.
 """
-from ocp_constraints.ocp.mesh_progress import STALL_GROWTH, stall_message
+from ocp_constraints.ocp.mesh_progress import STALL_GROWTH, optimum_changed, stall_message
 
 
 def _history(*steps):
@@ -181,8 +181,6 @@ def test_a_returned_solution_on_another_local_optimum_is_said():
     """The thirteenth newcomer's five-bar at 1e-7: J = 6.8162557 on seven meshes, 0.84027 on the last, "met" with
     nothing said. The record now names both objectives and the refinement; a refinement that keeps its optimum (to
     1e-6 here) is left as it was, and so is one returned at an earlier mesh (the one it compares with is before it)."""
-    from ocp_constraints.ocp.mesh_progress import optimum_changed
-
     history = [{"refinement": k, "objective": J} for k, J in enumerate([6.8163, 6.8162557, 6.8162557, 0.84027067])]
     record = {"history": history, "message": "estimated error at most 1e-07"}
     optimum_changed(record)

@@ -30,11 +30,11 @@ def interval_of(transcription, fractions, ending: bool = False) -> np.ndarray:
     return np.clip(np.searchsorted(mesh, fractions, side=side) - 1, 0, transcription.scheme.intervals - 1)
 
 
-def algebraic_points(transcription, k: int) -> np.ndarray:
-    """The points that carry interval ``k``'s inputs and multipliers: its points, less its start where that
-    is the previous Radau interval's last collocation point (see :func:`interpolation_matrix`)."""
-    points = np.asarray(transcription.interval_points(k))
-    return points[1:] if k > 0 and isinstance(transcription.local[k], Radau) else points
+def starts_shared(transcription) -> np.ndarray:
+    """Per interval: whether its start is the previous interval's last collocation point (a Radau interval after the
+    first), so that an input or multiplier there is that interval's value, not its own."""
+    tr = transcription
+    return np.array([k > 0 and isinstance(tr.local[k], Radau) for k in range(tr.scheme.intervals)], bool)
 
 
 def jumps_at_starts(transcription, values: np.ndarray) -> np.ndarray:
@@ -53,10 +53,10 @@ def jumps_at_starts(transcription, values: np.ndarray) -> np.ndarray:
     out = np.zeros(tr.scheme.intervals, bool)
     floor = 1e-6 * float(np.abs(values).max(initial=0.0))
     mesh = tr.scheme.mesh_fractions
-    labels = np.array([tr.local[k].label if isinstance(tr.local[k], Radau) else "" for k in range(len(out))])
-    labels[0] = ""                              # the first interval's start is its own point
-    for label in set(labels) - {""}:            # intervals of one degree share their local nodes: one basis
-        ks = np.flatnonzero(labels == label)
+    shared = starts_shared(tr)
+    labels = np.array([tr.local[k].label for k in range(len(out))])
+    for label in set(labels[shared]):           # intervals of one degree share their local nodes: one basis
+        ks = np.flatnonzero(shared & (labels == label))
         idx = np.asarray(tr.interval_points(int(ks[0])))
         nodes = (tr.fractions[idx] - mesh[ks[0]]) / (mesh[ks[0] + 1] - mesh[ks[0]])
         weights = lagrange_basis(nodes[1:], np.zeros(1))[0]
@@ -83,19 +83,22 @@ def interpolation_matrix(transcription, fractions, algebraic: bool = False) -> n
     E = np.zeros((len(fractions), tr.layout.n_points))
     # Intervals of one local scheme share their nodes in local time (0 at the interval's start, 1 at
     # its end): one basis evaluation for all their rows (a loop per interval cost ~3 ms a matrix).
-    local_of = np.array([tr.local[k].label for k in range(tr.scheme.intervals)])
-    radau = np.array([isinstance(tr.local[k], Radau) for k in range(tr.scheme.intervals)])
-    # The first interval's start is its own point (the dynamics hold there too): a group of its own.
-    group_of = np.array([f"{label}|{algebraic and radau[k] and k > 0}" for k, label in enumerate(local_of)])
-    for group in np.unique(group_of[k_of]):
-        rows = np.flatnonzero(group_of[k_of] == group)
+    # Those whose start is read alike share one basis; with ``algebraic`` an interval whose start
+    # is the previous one's (:func:`starts_shared`) leaves it out.
+    own = starts_shared(tr) & algebraic
+    keys = [(tr.local[k].label, bool(own[k])) for k in range(tr.scheme.intervals)]
+    groups: dict[tuple[str, bool], int] = {}
+    for k, key in enumerate(keys):
+        groups.setdefault(key, k)
+    key_of = np.array([groups[key] for key in keys])
+    for first in np.unique(key_of[k_of]):
+        rows = np.flatnonzero(key_of[k_of] == first)
         k = k_of[rows]
-        first = int(np.flatnonzero(group_of == group)[0])
-        idx0 = np.asarray(tr.interval_points(first))
+        idx0 = np.asarray(tr.interval_points(int(first)))
         nodes = (tr.fractions[idx0] - mesh[first]) / (mesh[first + 1] - mesh[first])
         local = (fractions[rows] - mesh[k]) / (mesh[k + 1] - mesh[k])
         cols = tr.offsets[k][:, None] + np.arange(len(idx0))[None, :]
-        if group.endswith("|True"):
+        if own[first]:
             nodes, cols = nodes[1:], cols[:, 1:]
         E[rows[:, None], cols] = lagrange_basis(nodes, local)
     return E

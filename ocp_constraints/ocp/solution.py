@@ -16,7 +16,7 @@ import numpy as np
 from ..dynamics.result import Result
 from ..dynamics.trajectory import Trajectory
 from ..errors import JumpWindowWarning, ModelError
-from .interpolation import algebraic_points, interval_of, jumps_at_starts
+from .interpolation import interval_of, jumps_at_starts, starts_shared
 
 
 @dataclass
@@ -157,16 +157,10 @@ class OCPSolution(Result):
         inside = np.zeros(times.shape, bool)
         if not (name in traj.multiplier_columns() or name in traj.input_columns()):
             return values, inside, windows
-        samples = self.sample(name)
+        values, samples = values.copy(), self.sample(name)
         k_of = interval_of(tr, times / self.t_final, ending=True)
-        # Where an input jumps at a mesh point, every multiplier jumps with it (the accelerations do); a
-        # multiplier's own jump can hide in its spread over the interval (a hinge's centripetal part).
-        jumped = jumps_at_starts(tr, samples)
-        for u in traj.input_columns():
-            jumped |= jumps_at_starts(tr, self.sample(u))
-        jumped = jumped[k_of]
+        jumped = (jumps_at_starts(tr, samples) | self._input_jumps())[k_of]
         if jumped.any():
-            values = values.copy()
             values[jumped] = tr.interpolation_matrix(times[jumped] / self.t_final, algebraic=True) @ samples
         for lo, hi in windows:
             inside |= (times > lo) & (times < hi)
@@ -174,13 +168,25 @@ class OCPSolution(Result):
         jumps = [w["fraction"] for w in (self.mesh_refinement or {}).get("switches_located", [])
                  if w["kind"] == "bang-bang" and w["inside"]]
         if inside.any() and jumps:
-            rough = set(interval_of(tr, np.asarray(jumps, float)).tolist())
-            values = values.copy()
+            rough, shared = set(interval_of(tr, np.asarray(jumps, float)).tolist()), starts_shared(tr)
             for row in np.flatnonzero(inside):
-                if int(k_of[row]) in rough:
-                    used = algebraic_points(tr, int(k_of[row]))
+                k = int(k_of[row])
+                if k in rough:
+                    used = np.asarray(tr.interval_points(k))[int(shared[k]):]
                     values[row] = np.interp(times[row], self.t[used], samples[used])
         return values, inside, windows
+
+    def _input_jumps(self) -> np.ndarray:
+        """Per interval: whether an input jumps at its start (:func:`.interpolation.jumps_at_starts`). Every multiplier
+        jumps with it (the accelerations do), and a multiplier's own jump can hide in its spread over the interval (a
+        hinge's centripetal part). Kept on the solution: :meth:`interpolate` asks it for every quantity."""
+        kept = self.__dict__.get("_input_jump_starts")
+        if kept is None:
+            kept = np.zeros(self.transcription.scheme.intervals, bool)
+            for u in self.trajectory.input_columns():
+                kept |= jumps_at_starts(self.transcription, self.sample(u))
+            self.__dict__["_input_jump_starts"] = kept
+        return kept
 
     def violations(self, tol: float = 1e-6, top: int = 5) -> list[tuple[str, float, float]]:
         """The problem's rows this solution violates most, by name, worst first: ``(what, amount, t)``.
