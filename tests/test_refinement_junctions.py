@@ -331,4 +331,6 @@ def test_a_path_constraint_whose_input_derivative_vanishes_on_its_arc_is_not_imp
     plumb = fractions[np.flatnonzero(np.diff(np.sign(psi[1:])) != 0)[0] + 1]     # where the swing changes sign
     k = int(np.argmin(np.abs(fractions - plumb)))
     assert path_values(sol)["rope tension"][k] == pytest.approx((tension * m_load * 9.81) ** 2, rel=1e-4)    # on its bound
-    assert len(rope) == 2 and all(not a.start <= plumb <= a.end for a in rope), (rope, plumb)
+    # The outer arcs whole; the middle one only on its regular pieces, open towards plumb (.path_regularity).
+    assert len(rope) == 4 and all(not a.start <= plumb <= a.end for a in rope), (rope, plumb)
+    assert sum(a.open_end for a in rope) == 1 and sum(a.open_start for a in rope) == 1

@@ -2,7 +2,7 @@
 
 An input with an effort term (a torque limit on a motor whose ``tau^2`` is minimized) that reaches its bound rides it
 over an arc and leaves it continuously, with a kink, at each *junction*; so does a path constraint that moves with
-such inputs (a hinge-force bound on that motor's rod, :func:`regular_over`). With the bound as an inequality, two
+such inputs (a hinge-force bound on that motor's rod, :mod:`.path_regularity`). With the bound as an inequality, two
 things keep the NLP about 1e-5 from the optimum, however fine the mesh (the torque-limited rod of
 ``examples/torque_limited_rod.py``; ``python scripts/junction_at_mesh_point.py``):
 
@@ -36,6 +36,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from .arc_handoffs import handed_off
+from .path_regularity import regular_pieces
 from .schemes import Radau
 from .switch_detection import activity, bounded_quantities, detect_switches, penalized_inputs
 from .transcription_elements import path_scale, rate_row, single_speed, state_row
@@ -55,12 +57,13 @@ class Arc:
     path: bool = False
     state: bool = False
     via: str | None = None
+    open_start: bool = False    # the quantity is on its bound before ``start`` too, held there as an inequality: no
+    open_end: bool = False      # junction (a path constraint's regular piece, :mod:`.path_regularity`); so after ``end``
 
 
 # Arcs, junctions and meshes are in fractions of the horizon (``tr.fractions``), so that a free final time stretches
 # them with the mesh; EPS: two fractions closer than this are one.
 EPS = 1e-9
-REGULAR = 1e-3      # a path row's scaled derivative in the inputs below this: it does not move with them there
 
 
 def _input_columns(tr, name: str) -> np.ndarray:
@@ -84,46 +87,6 @@ def path_rows(tr, label: str) -> np.ndarray | None:
             return None
         rows.append(tr.block.rows(element, instance) + first + tr.layout.nh + names.index(label))
     return np.asarray(rows)
-
-
-def input_gradients(solution, label: str, at: np.ndarray) -> np.ndarray:
-    """Path constraint ``label``'s row's derivative in each input, times the input's scale (its bounds' largest
-    magnitude, else 1), at points ``at``: one row per point (the row is in the NLP's scaling, about 1 at the bound)."""
-    tr = solution.transcription
-    path = tr.point_pieces[0]["path"]
-    j = [c.label for c in tr.nlp_path_constraints].index(label)
-    X, _, L, W, _, _ = (np.asarray(b, float) for b in tr.layout.split(np.asarray(solution.decision_vector, float)))
-    pr = getattr(tr, "user_problem", tr.problem)
-    span = np.array([max([abs(b) for b in pr.bounds.get(n, (np.nan, np.nan)) if np.isfinite(b)] + [1.0])
-                     for n in pr.model.inputs])
-    out = np.zeros((len(at), W.shape[0]))
-    for r, i in enumerate(at):
-        base = float(np.asarray(path(X[:, i], L[:, i], W[:, i], solution.t[i]))[j, 0])
-        for k in range(W.shape[0]):
-            w = W[:, i].copy()
-            w[k] += 1e-6 * span[k]
-            out[r, k] = (float(np.asarray(path(X[:, i], L[:, i], w, solution.t[i]))[j, 0]) - base) / 1e-6
-    return out
-
-
-def regular_over(solution, label: str, points: np.ndarray) -> bool:
-    """Whether path constraint ``label`` moves with the inputs all along an arc's ``points``: its scaled gradient in
-    them (:func:`input_gradients`) over :data:`REGULAR` at every point and never reversing between neighbours (through
-    zero). That is the regularity of a mixed constraint on its arc, under which the inputs there follow from it
-    (Hartl, Sethi and Vickson 1995, sec. 3); leaving its bound it then turns with them, transversally, and its mismatch
-    at a junction has a simple root. Where it fails:
-
-    - a load that follows the speeds alone (a hinge's centripetal pull, a speed limit seen through a multiplier)
-      leaves its bound tangentially: its mismatch is flat at the root and the secant wanders (the holdouts' hinge at
-      1e-4: twelve steps, none converged, 15% more CPU); in maximal coordinates a multiplier is a variable of its own
-      and no row moves with the inputs: there only the inputs' arcs are imposed;
-    - held as an equality where the gradient vanishes, the imposed NLP is singular: the least-time crane's rope
-      tension, whose derivative in the drive force goes through zero mid-arc where the rope hangs plumb, took MUMPS
-      166 s of CPU to fail one step (12 s for the whole refinement without it)."""
-    g = input_gradients(solution, label, points)
-    if np.any(np.abs(g).max(axis=1) <= REGULAR):
-        return False
-    return bool(np.all(np.sum(g[1:] * g[:-1], axis=1) > 0.0))
 
 
 def on_rows(tr, arc: Arc) -> bool:
@@ -159,7 +122,7 @@ def inner_junctions(arcs: list[Arc]) -> list[tuple[int, str, float]]:
     out = []
     for k, a in enumerate(arcs):
         ends = (("touch", a.start),) if is_touch(a) else (("start", a.start), ("end", a.end))
-        out += [(k, side, at) for side, at in ends if EPS < at < 1.0 - EPS]
+        out += [(k, side, at) for side, at in ends if EPS < at < 1.0 - EPS and not getattr(a, f"open_{side}", False)]
     return out
 
 
@@ -285,7 +248,7 @@ def find_arcs(solution) -> tuple[list[Arc], dict[str, float]]:
     tr = solution.transcription
     pr = getattr(tr, "user_problem", tr.problem)
     t = tr.fractions
-    smooth, located, arcs, scale = None, None, [], {}
+    smooth, located, arcs, scale, runs_of = None, None, [], {}, []
     for name, v, lo, hi, state, continuous in bounded_quantities(solution):
         if continuous and not state:
             continue
@@ -326,16 +289,24 @@ def find_arcs(solution) -> tuple[list[Arc], dict[str, float]]:
                     start = end = 0.5 * (start + end)
                 via = _kinking_input(solution, sorted(smooth), start)
                 arcs.append(Arc(name, float(lo if s[i] < 0 else hi), start, end, state=True, via=via))
+                runs_of.append((i, j))
                 scale[name] = _scale(v, lo, hi)
                 scale[via] = _input_scale(solution, pr, via)
                 continue
-            if path and not regular_over(solution, name, np.arange(max(i, 1), j + 1)):
-                continue
             start = 0.0 if i <= 1 else _nearest(at, t[i - 1], t[i])
             end = 1.0 if j == len(t) - 1 else _nearest(at, t[j], t[j + 1])
-            arcs.append(Arc(name, float(lo if s[i] < 0 else hi), start, end, path))
-            scale[name] = _scale(v, lo, hi)
-    return arcs, scale
+            points = np.arange(max(i, 1), j + 1)
+            pieces = regular_pieces(solution, name, points, start > 0.0, end < 1.0) if path else [(0, len(points) - 1)]
+            for first, last in pieces:
+                # A piece that stops short of the arc's end (or starts after its start) is open there: the bound
+                # holds on as an inequality (.path_regularity).
+                a, b = points[first], points[last]
+                open_start, open_end = bool(a > points[0]), bool(b < points[-1])
+                arcs.append(Arc(name, float(lo if s[i] < 0 else hi), float(0.5 * (t[a - 1] + t[a])) if open_start else start,
+                                float(t[b]) if open_end else end, path, open_start=open_start, open_end=open_end))
+                runs_of.append((a, b))
+                scale[name] = _scale(v, lo, hi)
+    return handed_off(arcs, runs_of), scale
 
 
 def _scale(values: np.ndarray, lo: float, hi: float) -> float:

@@ -21,6 +21,7 @@ from dataclasses import dataclass, replace
 import numpy as np
 
 from ..errors import OCPSolveError
+from .arc_handoffs import tied
 from .imposed_arcs import (find_arcs, inner_junctions, is_touch, mismatch, on_rows, pinned, pinned_points, values_of,
                            with_junction_points)
 from .mesh_solves import timed_solve
@@ -128,13 +129,14 @@ def solve_on_arcs(problem, scheme, arc_set: ArcSet, tol: float, options: dict, w
     mesh = scheme.mesh_fractions
     step = FIRST_STEP * np.array([np.diff(mesh)[min(max(np.searchsorted(mesh, at) - 1, 0), len(mesh) - 2)] for at in times])
     before, wall, cpu, slopes, halved, probe, best = None, 0.0, 0.0, arc_set.slopes, 0, False, None
+    lead = tied(junctions)
     for _ in range(STEPS):
         for (k, side, _), at in zip(junctions, times):
             arcs[k] = replace(arcs[k], **({"start": float(at), "end": float(at)} if side == "touch" else {side: float(at)}))
         trial = with_junction_points(scheme, list(times))
         sol, w, c = timed_solve(problem, trial, options, warm, progress, first, fallback, scale_objective, arcs=arcs)
         wall, cpu = wall + w, cpu + c
-        g = mismatch(sol, arcs, arc_set.scale)
+        g = mismatch(sol, arcs, arc_set.scale)[lead]       # a hand-off's two junctions: one root (.arc_handoffs)
         if not probe and before is not None and np.abs(g).max() > GROWTH * np.abs(before[1]).max() and halved < HALVINGS:
             # A secant step that made the mismatch grow: halved, from the last point kept (warm from its solution).
             # Near a junction the imposed NLP can have a second optimum that uses the bound dropped next to it (the
@@ -164,8 +166,8 @@ def solve_on_arcs(problem, scheme, arc_set: ArcSet, tol: float, options: dict, w
             new = times - g / np.asarray(slopes, float)
         elif before is None:
             # An arc's end later, or its start earlier, where the free side is past its bound there.
-            sign = np.array([1.0 if side == "end" else -1.0 for _, side, _ in junctions])
-            upper = np.array([1.0 if arcs[k].value == _bounds(first, arcs[k])[1] else -1.0 for k, _, _ in junctions])
+            sign = np.array([1.0 if side == "end" else -1.0 for _, side, _ in junctions])[lead]
+            upper = np.array([1.0 if arcs[k].value == _bounds(first, arcs[k])[1] else -1.0 for k, _, _ in junctions])[lead]
             new = times + step * sign * np.sign(g) * upper
         else:
             old_times, old_g = before

@@ -164,3 +164,22 @@ def reused_degree(needed: int, built) -> int:
     or two more on the intervals that are raised costs a few points, and errs on the accurate side (swing-up
     at 1e-4: degrees 5-7 on 10 intervals, 63 points, two new kinds; all 7: 71 points, none)."""
     return min([d for d in built if needed <= d <= MAX_DEGREE], default=needed)
+
+
+RESTART_DEGREE = 3
+
+
+def low_degree(scheme: Radau, degree: int = RESTART_DEGREE) -> Radau:
+    """``scheme`` at ``degree``, each interval cut into as many equal pieces as keep at least its points: the mesh a
+    refinement starts again from, cold, where a finer mesh did not solve (:func:`.mesh_progress.restarted`). From a
+    guess far from the optimum a cold solve is surer at a low degree: a high degree's polynomials swing far between
+    a poor guess's points, and IPOPT's steps with them (a seventh newcomer's URDF arm: Radau 7 x 20 from the problem's
+    guess not solved in 3,000 iterations on one machine, in 20 on another; Radau 3 x 40 in 19 on both). The refinement
+    raises the degrees again where the solution is smooth."""
+    mesh, degrees = scheme.mesh_fractions, _degrees(scheme)
+    points = [mesh[0]]
+    for a, b, p in zip(mesh[:-1], mesh[1:], degrees):
+        m = max(1, math.ceil(p / degree))
+        points += [a + (b - a) * j / m for j in range(1, m)] + [b]
+    points[-1] = 1.0
+    return Radau(mesh=tuple(float(x) for x in points), degrees=(degree,) * (len(points) - 1))

@@ -211,35 +211,42 @@ def unresolved(record: dict | None, tol: float) -> bool:
                               max(record["estimate"]["states"], record["estimate"]["multipliers"]) > UNRESOLVED * tol)
 
 
-def restarted(first, finer, clock: tuple, solve_again):
-    """A refinement stopped by a mesh ``finer`` IPOPT did not solve warm while its motion was not resolved
-    (:func:`unresolved`; ``first`` returned, by :func:`unestimated` or :func:`gave_up`), started again from that mesh,
-    solved from the problem's guess (``solve_again()``): a mesh too coarse for the motion has an optimum of its own,
-    which misleads the finer mesh's warm solve (a
-    seventh newcomer's URDF arm: Radau 5 x 10 reaches J = 28.87 with link 2 spinning at 37 rad/s, and its pilot,
-    Radau 7 x 20, warm from it, is not solved in 280 iterations; from the problem's guess it solves in 20 to
-    J = 9.074, the reference's optimum). ``clock``: (wall, CPU) at the refinement's start, both attempts counted.
-    Where the restart's first mesh is not solved either, ``first`` is returned with its message saying so."""
+def restarted(first, meshes: list, clock: tuple, solve_from):
+    """A refinement stopped by a mesh IPOPT did not solve warm while its motion was not resolved (:func:`unresolved`;
+    ``first`` returned, by :func:`unestimated` or :func:`gave_up`), started again from a finer mesh solved from the
+    problem's guess (``solve_from(mesh)``, each of ``meshes`` in turn until one solves: the mesh that failed, then the
+    same at a low degree, :func:`.mesh_companions.low_degree`): a mesh too coarse for the motion has an optimum of
+    its own, which misleads the finer mesh's warm solve (a seventh newcomer's URDF arm: Radau 5 x 10 reaches J =
+    28.87 with link 2 spinning at 37 rad/s, and its pilot, Radau 7 x 20, warm from it, is not solved in 280
+    iterations; from the problem's guess it solved in 20 to J = 9.074 on one machine and not in 3,000 on another).
+    ``clock``: (wall, CPU) at the refinement's start, every attempt counted. Where no restart is solved either,
+    ``first`` is returned with its message saying so."""
     earlier = first.mesh_refinement
     scheme = first.transcription.scheme
-    try:
-        sol = solve_again()
-    except OCPSolveError as exc:
-        if exc.solution is not None and exc.solution.status.startswith("interrupted"):
-            raise
-        said = str(exc).split("; the last iterate")[0]
-        earlier["message"] += (f". Started again from the finer mesh ({finer.intervals} intervals, {finer.point_count} "
-                               f"points) from the problem's guess: not solved either ({said})")
-        sol = first
-    else:
+    failed = []
+    for finer in meshes:
+        try:
+            sol = solve_from(finer)
+        except OCPSolveError as exc:
+            if exc.solution is not None and exc.solution.status.startswith("interrupted"):
+                raise
+            failed.append(f"{finer.intervals} intervals, {finer.point_count} points: "
+                          + str(exc).split("; the last iterate")[0])
+            continue
         record = sol.mesh_refinement
         record.pop("finer_start", None)
         record["restarted"] = {"solution": {"intervals": scheme.intervals, "points": scheme.point_count,
                                               "objective": float(first.objective)},
-                               "history": earlier["history"], "message": earlier["message"]}
+                               "history": earlier["history"], "message": earlier["message"], "not_solved": failed}
         record["message"] += (f" (started again from {finer.intervals} intervals, {finer.point_count} points: the first "
                               f"solution ({scheme.intervals} intervals, objective {float(first.objective):.6g}) did not resolve the motion "
-                              f"and the finer mesh did not solve from it; 'restarted' has that attempt)")
+                              f"and the finer mesh did not solve from it; 'restarted' has that attempt"
+                              + (f"; not solved from the problem's guess: {'; '.join(failed)}" if failed else "") + ")")
+        break
+    else:
+        earlier["message"] += (". Started again from finer meshes from the problem's guess: not solved either ("
+                               + "; ".join(failed) + ")")
+        sol = first
     sol.mesh_refinement.update(total_time_s=time.perf_counter() - clock[0], total_cpu_s=time.process_time() - clock[1])
     return sol
 

@@ -72,7 +72,7 @@ from .error_estimate import UNRESOLVED_OBJECTIVE, UNRESOLVED_STATE, estimate_err
 from .hp_rule import MIN_DEGREE, ROUGH_MIN, refine  # noqa: F401 (MIN_DEGREE, ROUGH_MIN: read here by tests and docs)
 from .junction_times import align_junctions, described, solve_on_arcs
 from .legendre_decay import DECAY_LIMIT, legendre_decay
-from .mesh_companions import (MAX_DEGREE, _degrees, _ends, as_fine, companion_of, finer, finer_at_hand, pilot_of,
+from .mesh_companions import (MAX_DEGREE, _degrees, _ends, as_fine, companion_of, finer, finer_at_hand, low_degree, pilot_of,
                               pilot_pieces, uniform_step)
 from .mesh_progress import (gave_up, inputs_aside, interrupted, lowest_estimate, more_refinements, optimum_changed, restarted,
                             stall_message,
@@ -162,8 +162,8 @@ def solve_to_tolerance(problem, tolerance, method=None, ipopt_options: dict | No
     if (finer := sol.mesh_refinement.pop("finer_start", None)) is None:
         return sol
     cap = max(FALLBACK_MIN_ITER, FALLBACK_FACTOR * sol.mesh_refinement["history"][0].get("iterations", 0))   # as a retry
-    return restarted(sol, finer, clock, lambda: _refine(problem, tolerance, finer, ipopt_options, warm_start, progress,
-                                                        max_refinements, cap))
+    return restarted(sol, [finer, low_degree(finer)], clock,
+                     lambda mesh: _refine(problem, tolerance, mesh, ipopt_options, warm_start, progress, max_refinements, cap))
 
 
 def _refine(problem, tolerance, method, ipopt_options, warm_start, progress, max_refinements, first_cap=None, clock=None):
