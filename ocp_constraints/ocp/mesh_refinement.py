@@ -162,13 +162,18 @@ def solve_to_tolerance(problem, tolerance, method=None, ipopt_options: dict | No
     if (finer := sol.mesh_refinement.pop("finer_start", None)) is None:
         return sol
     cap = max(FALLBACK_MIN_ITER, FALLBACK_FACTOR * sol.mesh_refinement["history"][0].get("iterations", 0))   # as a retry
-    return restarted(sol, [finer, low_degree(finer)], clock,
-                     lambda mesh: _refine(problem, tolerance, mesh, ipopt_options, warm_start, progress, max_refinements, cap))
+    cold = {"ipopt.max_iter": cap, **(ipopt_options or {})}
+    return restarted(sol, [finer, low_degree(finer), low_degree(start_scheme(method, problem))], clock,
+                     lambda mesh: _timed_solve(problem, mesh, cold, None, progress),
+                     lambda best: _refine(problem, tolerance, best[0].transcription.scheme, ipopt_options, None, progress,
+                                          max_refinements, clock=clock, solved_first=best))
 
 
-def _refine(problem, tolerance, method, ipopt_options, warm_start, progress, max_refinements, first_cap=None, clock=None):
+def _refine(problem, tolerance, method, ipopt_options, warm_start, progress, max_refinements, first_cap=None, clock=None,
+            solved_first=None):
     """The refinement loop of :func:`solve_to_tolerance` from one first mesh (``first_cap``: IPOPT's iterations on
-    its first solve, where the options set none; ``clock``: (wall, CPU) the total times count from)."""
+    its first solve, where the options set none; ``clock``: (wall, CPU) the total times count from; ``solved_first``:
+    the first mesh's solve already done, (solution, wall s, CPU s))."""
     tol = check_tolerance(tolerance)
     scheme, options = start_scheme(method, problem), dict(ipopt_options or {})
     options.update(without_mumps_scaling(options) if scheme != start_scheme(method) else {})   # see time_breakpoints
@@ -202,6 +207,8 @@ def _refine(problem, tolerance, method, ipopt_options, warm_start, progress, max
             if solved is not None:      # this mesh is the last companion's (or the arcs' last step): its solution is at hand
                 sol, t_sol, c_sol = solved, 0.0, 0.0
                 entry["arcs_aligned" if "input_arcs" in history[-2] else "solved_as_companion"] = True
+            elif r == 0 and solved_first is not None:
+                sol, t_sol, c_sol = solved_first
             else:
                 pending = scheme if r > 0 else None
                 cold = {"ipopt.max_iter": first_cap, **options} if first_cap else options
