@@ -102,6 +102,7 @@ def _minimal_slider_crank():
                           + free.force_work(x_slider, ca.DM([-GAS, 0, 0])))
 
 
+@pytest.mark.slow
 def test_a_closed_loop_slider_crank_meets_1e_4_and_its_rod_force_agrees_with_lagranges_equations():
     """Without the scale the refinement stalled here (58 s, its estimate rising from 1.2e-4 to 7.6e-3: IPOPT
     regularized every iteration on the fine meshes). Now met; the rod's push on the slider along the rail,

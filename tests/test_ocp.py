@@ -151,6 +151,10 @@ def test_bad_transcription_and_problem_input_is_named():
     _, problem = build_task("pendulum", "swing_up")
     with pytest.raises(ModelError, match="no quantity named 'rod.spin'"):
         problem.bound("rod.spin", -1, 1)
+    # a rate: refused where it is written, with the path constraint to write instead (it used to pass until solve)
+    with pytest.raises(ModelError, match=r"bound on 'rod.psi_dot': .* is a rate; .*subject_to\(problem.quantity\('rod.psi_dot'\), -3, 3"):
+        problem.bound("rod.psi_dot", -3, 3)
+    assert "rod.psi_dot" not in problem.bounds
     with pytest.raises(ModelError, match="lower 2.0 exceeds upper 1.0"):
         problem.bound("motor", 2.0, 1.0)
     with pytest.raises(ModelError, match="no constraint 'hinge.v9'"):

@@ -238,6 +238,7 @@ def test_a_friction_cone_on_a_heavy_wheel_costs_ipopt_no_more_than_on_a_light_on
     assert heavy.iterations <= 2 * light.iterations
 
 
+@pytest.mark.slow
 def test_radaus_input_at_t0_held_in_its_bounds_costs_the_crane_only_on_a_coarse_mesh():
     """Radau has no collocation point at t0; its input there is the first interval's polynomial extrapolated and
     is held inside the input's bounds (README, "Known limitations"). The crane's trolley force starts at its

@@ -71,6 +71,7 @@ def _arm(tmp_path):
     return problem
 
 
+@pytest.mark.slow
 def test_the_urdf_arm_from_the_default_first_mesh_ends_met_at_an_optimum_the_independent_reference_confirms(tmp_path):
     """The arm has several optima (J = 7.303 with the shoulder's bound inactive, 9.074 with it active on an arc, 62.34),
     and which one a cold start from the guess reaches depends on the mesh, and on the machine's floating point (casadi

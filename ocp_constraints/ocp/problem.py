@@ -180,6 +180,11 @@ class OptimalControlProblem:
     def bound(self, name: str, lower: float = -np.inf, upper: float = np.inf) -> None:
         """Bounds on a coordinate, speed or input at every point (rates go to path constraints)."""
         self.quantity(name)
+        if name not in (*self.model.coordinate_names, *self.model.speed_names, *self.model.inputs):
+            # Refused here, not at solve: a rate's bound used to pass until the transcription refused it.
+            raise ModelError(f"bound on '{name}': only coordinates, speeds and inputs take bounds, and '{name}' is a "
+                             f"rate; bound it as a path constraint: problem.subject_to(problem.quantity('{name}'), "
+                             f"{lower}, {upper}, '{name} limit')")
         lower, upper = float(lower), float(upper)
         if lower > upper:
             raise ModelError(f"bound on '{name}': lower {lower} exceeds upper {upper}; swap them if they are reversed")
