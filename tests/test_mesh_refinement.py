@@ -386,27 +386,27 @@ def test_a_first_mesh_whose_companion_fails_is_returned_not_met_with_no_estimate
     assert np.allclose(sol.sample("motor"), fixed.sample("motor"), atol=1e-6 * np.abs(fixed.sample("motor")).max())
     assert "Maximum_Iterations_Exceeded" in record["history"][0]["failed"] and record["history"][0]["solves"] == 1
     assert "its error NOT estimated" in record["message"] and "start from a finer mesh" in record["message"]
-    # the pilot's mesh and two low-degree meshes were tried from the problem's guess (mesh_progress.restarted), under
-    # the same cap: none solved
-    assert "Started again from the problem's guess: no mesh solved (20 intervals, 141 points" in record["message"]
-    assert record["message"].count("Maximum_Iterations_Exceeded") == 4 and "restarted" not in record
+    # started again from the problem's guess and perturbed ones (mesh_progress.restarted), under the same cap: none solved
+    assert "Started again from the problem's guess and perturbed ones: none solved" in record["message"]
+    assert f"none of the {mr.RESTART_STARTS} starts succeeded" in record["message"] and "restarted" not in record
     assert main(["solve", "pendulum", "--tolerance", "1e-6", "--no-plots", "--out", str(tmp_path / "run")]) == 0
     assert "refinements, 10 intervals of degrees 5-5; error NOT estimated" in capsys.readouterr().out
     assert json.loads((tmp_path / "run" / "summary.json").read_text())["mesh_refinement"]["estimate"] is None
 
 
-def test_a_first_mesh_whose_companion_fails_is_started_again_cold_and_refined_from_the_best_cold_start(monkeypatch,
-                                                                                                       pontryagin):
+def test_a_first_mesh_whose_companion_fails_is_started_again_from_a_multistart_and_refined_from_its_best(monkeypatch,
+                                                                                                     pontryagin):
     """The swing-up's first mesh solves, its pilot (warm, and its retry) is made to fail: the refinement starts again
-    from the problem's guess (mesh_progress.restarted), every candidate mesh solved cold once (the pilot's, then two
-    at degree 3), and refines from the one of the lowest objective, its time counted. The result is checked against
-    the Pontryagin extremal, not against a run of the library: true error within the tolerance."""
+    from the problem's guess and perturbed ones (mesh_progress.restarted: a multi-start on the first mesh at degree 3),
+    and refines from the best start, its time counted. The result is checked against the Pontryagin extremal, not
+    against a run of the library: true error within the tolerance."""
     import ocp_constraints.ocp.mesh_refinement as mr
+    from ocp_constraints.ocp.mesh_companions import low_degree
 
     solves, real = [], mr._timed_solve
 
     def timed_solve(problem, scheme, ipopt_options, warm_start, progress, first=None, fallback=None, scale=False, arcs=()):
-        solves.append((scheme, warm_start is None))
+        solves.append(scheme)
         if len(solves) == 2:        # the first mesh's pilot, warm: stopped after one iteration, its retry too
             ipopt_options = {**ipopt_options, "ipopt.max_iter": 1}
             fallback = {**(fallback or {}), "ipopt.max_iter": 1}
@@ -415,12 +415,12 @@ def test_a_first_mesh_whose_companion_fails_is_started_again_cold_and_refined_fr
     monkeypatch.setattr(mr, "_timed_solve", timed_solve)
     sol = build_task("pendulum", "swing_up")[1].solve(tolerance=1e-4)
     record = sol.mesh_refinement
-    assert [cold for _, cold in solves[:5]] == [True, False, True, True, True]    # first mesh, pilot, three cold starts
-    starts = record["restarted"]["cold_starts"]
-    assert [s["points"] for s in starts] == [m.point_count for m, _ in solves[2:5]] and not record["restarted"]["not_solved"]
-    lowest = min(starts, key=lambda s: s["objective"])
-    assert record["history"][0]["points"] == lowest["points"] and record["history"][0]["objective"] == lowest["objective"]
+    starts = record["restarted"]["multistart"]
+    assert starts["starts"] == mr.RESTART_STARTS and starts["succeeded"] >= 1
     assert record["restarted"]["solution"]["points"] == 51 and "did not resolve the motion" in record["message"]
+    # the refinement went on from the best start, on the first mesh at degree 3
+    assert record["history"][0]["points"] == low_degree(Radau(10, degree=5)).point_count == 61
+    assert record["history"][0]["objective"] == pytest.approx(starts["optima"][0]["objective"], rel=1e-12)
     assert record["met"] and record["total_cpu_s"] > sum(h["cpu_s"] for h in record["history"])
     true = _errors(sol, _swing_up_truth(pontryagin, sol))
     assert max(true["states"], true["multipliers"]) <= 1e-4
@@ -450,11 +450,15 @@ def test_a_mesh_ipopt_cannot_solve_stops_the_refinement_with_the_last_estimated_
     """The third solve (the first after refinement 0's estimate) and every later one capped at one IPOPT iteration,
     warm attempt and retry alike: IPOPT really stops (Maximum_Iterations_Exceeded); the refinement stops there, 'met'
     False. Refinement 0's estimate being far above the tolerance, that mesh is solved once more from the problem's
-    guess, and so are two low-degree meshes (mesh_progress.restarted; the fourth to sixth solves, capped too, fail);
-    refinement 0's solution is returned with its own estimate and a message saying what failed and what is returned."""
+    guess and perturbed ones (mesh_progress.restarted: a multi-start, capped too, fails); refinement 0's solution is
+    returned with its own estimate and a message saying what failed and what is returned."""
     import ocp_constraints.ocp.mesh_refinement as mr
 
-    solves, real = [], mr._timed_solve
+    solves, real, real_starts = [], mr._timed_solve, mr.solve_multistart
+
+    def solve_multistart(problem, method, starts, seed, client, ipopt_options, *args, **kwargs):
+        solves.append(method)
+        return real_starts(problem, method, starts, seed, client, {**ipopt_options, "ipopt.max_iter": 1}, *args, **kwargs)
 
     def timed_solve(problem, scheme, ipopt_options, warm_start, progress, first=None, fallback=None, scale=False, arcs=()):
         solves.append(scheme)
@@ -464,10 +468,11 @@ def test_a_mesh_ipopt_cannot_solve_stops_the_refinement_with_the_last_estimated_
         return real(problem, scheme, ipopt_options, warm_start, progress, first, fallback, scale, arcs)
 
     monkeypatch.setattr(mr, "_timed_solve", timed_solve)
+    monkeypatch.setattr(mr, "solve_multistart", solve_multistart)
     sol = mr.solve_to_tolerance(build_task("pendulum", "swing_up")[1], 1e-9, Radau(4, degree=3))
     record = sol.mesh_refinement
-    assert len(solves) == 6 and solves[3] == solves[2] and not record["met"] and "restarted" not in record
-    assert all(set(s.points_per_interval - 1) == {3} for s in solves[4:])     # the low-degree meshes
+    assert len(solves) == 4 and solves[3].mesh_fractions.tolist() == solves[0].mesh_fractions.tolist()     # at degree 3
+    assert not record["met"] and "restarted" not in record
     assert sol.success and sol.transcription.scheme.mesh_fractions.tolist() == solves[0].mesh_fractions.tolist()
     assert record["estimate"] == record["history"][0]["estimate"]
     assert "Maximum_Iterations_Exceeded" in record["history"][1]["failed"]
@@ -475,7 +480,7 @@ def test_a_mesh_ipopt_cannot_solve_stops_the_refinement_with_the_last_estimated_
     # an estimate far above the tolerance: the first mesh does not resolve the motion, and the advice says so
     assert record["estimate"]["states"] > 100 * 1e-9
     assert "start from a finer mesh, e.g. solve(oc.Radau(16, degree=5), tolerance=...)" in record["message"]
-    assert f"Started again from the problem's guess: no mesh solved ({solves[2].intervals} intervals" in record["message"]
+    assert "Started again from the problem's guess and perturbed ones: none solved" in record["message"]
 
 
 

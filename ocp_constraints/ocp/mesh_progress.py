@@ -211,54 +211,44 @@ def unresolved(record: dict | None, tol: float) -> bool:
                               max(record["estimate"]["states"], record["estimate"]["multipliers"]) > UNRESOLVED * tol)
 
 
-def restarted(first, meshes: list, clock: tuple, solve_cold, refine_from):
+def restarted(first, clock: tuple, solve_starts, refine_from):
     """A refinement stopped by a mesh IPOPT did not solve warm while its motion was not resolved (:func:`unresolved`;
-    ``first`` returned, by :func:`unestimated` or :func:`gave_up`), started again from the problem's guess: each of
-    ``meshes`` solved cold once (``solve_cold(mesh)``: the mesh that failed, then low-degree meshes, surer from a poor
-    guess, :func:`.mesh_companions.low_degree`; each (solution, wall s, CPU s)), and the refinement continued
-    (``refine_from(that)``) from the
-    solved one of the lowest objective. A mesh too coarse for the motion has an optimum of its own, which misleads
-    the finer mesh's warm solve; and a cold start of a nonconvex problem lands in an optimum that depends on the mesh,
-    and on the machine's floating point: several starts, the best kept, is the usual remedy. A seventh newcomer's
-    URDF arm: Radau 5 x 10 reaches J = 28.87 with link 2 spinning at 37 rad/s, and its pilot, Radau 7 x 20, warm from
-    it, is not solved; from the problem's guess, Radau 7 x 20 solved in 20 iterations to J = 9.074 on one machine
-    and not in 3,000 on another, Radau 3 x 60 reached J = 62.3 and Radau 3 x 20 J = 9.074.
-    ``clock``: (wall, CPU) at the refinement's start, every attempt counted. Where no cold start is solved, ``first``
-    is returned with its message saying so."""
+    ``first`` returned, by :func:`unestimated` or :func:`gave_up`), started again from the problem's guess: a
+    multi-start (``solve_starts()``: :func:`.multistart.solve_multistart` on the first mesh at a low degree, the
+    problem's guess and perturbed ones, the best kept; its solution, wall and CPU seconds), and the refinement
+    continued from its best (``refine_from(those)``). A mesh too coarse for the motion has an optimum of its own, which
+    misleads the finer mesh's warm solve; and a single cold start of a nonconvex problem lands in an optimum that
+    depends on the mesh and on the machine's floating point. A seventh newcomer's URDF arm: Radau 5 x 10 reaches
+    J = 28.87 with link 2 spinning at 37 rad/s, and its pilot, Radau 7 x 20, warm from it, is not solved; from the
+    problem's guess alone, Radau 7 x 20 solved in 20 iterations to J = 9.074 on one machine and not in 3,000 on
+    another, Radau 3 x 20 reached 9.074 and the same mesh 1e-16 apart 97.6; eight starts on Radau 3 x 20 reach
+    7.163, 9.074 (five), 13.3 and 31.3, and the best is refined to 7.1646. ``clock``: (wall, CPU) at the refinement's
+    start, every attempt counted. Where no start is solved, ``first`` is returned with its message saying so."""
     earlier = first.mesh_refinement
     scheme = first.transcription.scheme
-    failed, starts, solved = [], [], []
-    for mesh in meshes:
-        try:
-            solved.append(solve_cold(mesh))
-            starts.append(solved[-1][0])
-        except OCPSolveError as exc:
-            if exc.solution is not None and exc.solution.status.startswith("interrupted"):
-                raise
-            failed.append(f"{mesh.intervals} intervals, {mesh.point_count} points: "
-                          + str(exc).split("; the last iterate")[0])
-    if not starts:
-        earlier["message"] += (". Started again from the problem's guess: no mesh solved ("
-                               + "; ".join(failed) + ")")
-        first.mesh_refinement.update(total_time_s=time.perf_counter() - clock[0],
-                                     total_cpu_s=time.process_time() - clock[1])
+    try:
+        started = solve_starts()
+    except OCPSolveError as exc:
+        if exc.solution is not None and exc.solution.status.startswith("interrupted"):
+            raise
+        earlier["message"] += (". Started again from the problem's guess and perturbed ones: none solved ("
+                               + str(exc).split("; start 0's last iterate")[0] + ")")
+        earlier.update(total_time_s=time.perf_counter() - clock[0], total_cpu_s=time.process_time() - clock[1])
         return first
-    best = min(range(len(starts)), key=lambda k: float(starts[k].objective))
-    mesh = starts[best].transcription.scheme
-    sol = refine_from(solved[best])
+    best = started[0]
+    mesh, summary = best.transcription.scheme, best.multistart
+    sol = refine_from(started)
     record = sol.mesh_refinement
     record.pop("finer_start", None)
     record["restarted"] = {
         "solution": {"intervals": scheme.intervals, "points": scheme.point_count, "objective": float(first.objective)},
-        "history": earlier["history"], "message": earlier["message"], "not_solved": failed,
-        "cold_starts": [{"intervals": s.transcription.scheme.intervals, "points": s.transcription.scheme.point_count,
-                         "objective": float(s.objective)} for s in starts]}
-    tried = ", ".join(f"{s.transcription.scheme.point_count} points: {float(s.objective):.6g}" for s in starts)
-    record["message"] += (f" (started again from {mesh.intervals} intervals, {mesh.point_count} points, the lowest "
-                          f"objective of the cold starts from the problem's guess ({tried}"
-                          + (f"; not solved: {len(failed)}" if failed else "")
-                          + f"): the first solution ({scheme.intervals} intervals, objective {float(first.objective):.6g}) "
-                          f"did not resolve the motion and the finer mesh did not solve from it; 'restarted' has that attempt)")
+        "history": earlier["history"], "message": earlier["message"], "multistart": summary}
+    optima = ", ".join(f"{o['objective']:.6g}" + (f" ({o['count']})" if o["count"] > 1 else "") for o in summary["optima"])
+    record["message"] += (f" (started again: the first solution ({scheme.intervals} intervals, objective "
+                          f"{float(first.objective):.6g}) did not resolve the motion and the finer mesh did not solve "
+                          f"from it; {summary['succeeded']} of {summary['starts']} starts from the problem's guess and "
+                          f"perturbed ones on {mesh.intervals} intervals, {mesh.point_count} points, reached {optima}, "
+                          f"the lowest refined; 'restarted' has the first attempt)")
     record.update(total_time_s=time.perf_counter() - clock[0], total_cpu_s=time.process_time() - clock[1])
     return sol
 
