@@ -128,6 +128,7 @@ def test_a_state_bounds_junction_put_at_a_mesh_point_floors_the_hinge_forces_est
         assert est.totals["multipliers"] >= half_gap * change * (1 - 1e-12)
 
 
+@pytest.mark.slow
 def test_the_wall_written_as_a_path_constraint_gets_the_same_floor(monkeypatch):
     """The same wall as ``subject_to(x, upper=1/9)``, a path constraint of the coordinates alone: at 1e-6 the block's
     speed on the wall was 1.72x the estimate; its rate (dx/dq N u, zero on the arc) over ||dx/dq N||_1 floors it

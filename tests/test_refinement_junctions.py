@@ -269,7 +269,8 @@ def test_short_arcs_at_the_ends_are_imposed_and_meet_1e_6_against_the_closed_for
     assert np.abs(sol.interpolate("motor", grid) - torque).max() <= record["estimate"]["inputs"] * tau_max
 
 
-@pytest.mark.parametrize("tolerance", [1e-4, pytest.param(1e-5, marks=pytest.mark.slow)])
+@pytest.mark.slow
+@pytest.mark.parametrize("tolerance", [1e-4, 1e-5])
 def test_an_arc_found_on_a_barely_resolved_mesh_is_tried_again_once_the_estimate_has_fallen(tolerance):
     """A newcomer's cart-pole swing-up (scripts/newcomer_problems.py) under a bound on the hinge's force: its arc is
     first found on meshes whose estimates are 2.2 and 0.95, where the secant cannot place its junctions; tried once

@@ -27,8 +27,11 @@ free side's value less the arc's (``via``, the input that kinks most there), is 
 ``2 (t1 - 3 l) / t1^2`` for an entry at ``t1`` (the free arc's cubic through the wall's point with zero speed).
 With the bound an inequality the same barrier and kink as an input's kept the multipliers about 1e-5 off: an eighth
 newcomer's pendulum "met" 1e-5 with its hinge force 2.9x the estimate, entering the stop 3.3e-5 s late
-(``scripts/refinement_newcomer8``). Only arcs with both junctions inside the horizon: an arc from ``t0`` or to the end
-meets the boundary values there.
+(``scripts/refinement_newcomer8``). A state's arc from ``t0`` or to the end (a motion that starts or ends on the
+bound) has one junction; the end's own point is left to the boundary values and the bound's inequality (pinned as
+well, the two equalities on one point made the NLP's Jacobian rank-deficient). Until session 31 such arcs were not
+imposed: the fourteenth newcomer's block starting at its speed limit was not met at 1e-6 on 245 points; now 61
+points from 1e-4 to 1e-7, its error at rounding (``tests/test_refinement_state_arcs.py``).
 """
 from __future__ import annotations
 
@@ -144,8 +147,9 @@ def pinned_points(tr, arcs: list[Arc]) -> tuple[list[np.ndarray], list[np.ndarra
     continuous there), and those whose bound each inner junction drops (the free interval next to it, a state's
     junction point not; each junction a mesh point)."""
     t = tr.fractions
-    fixed = [np.flatnonzero((t > a.start - EPS if a.state else t > max(a.start, 0.0) + EPS) & (t <= a.end + EPS))
-             for a in arcs]
+    # A state's arc from t0 or to the end leaves that end's point to the boundary values and the bound's inequality.
+    fixed = [np.flatnonzero((t > a.start - EPS if a.state and a.start > 0.0 else t > max(a.start, 0.0) + EPS)
+                            & (t <= a.end + EPS if not a.state or a.end < 1.0 else t < 1.0 - EPS)) for a in arcs]
     freed = [_free_interval(tr, at, side) for _, side, at in inner_junctions(arcs)]
     freed = [p[np.abs(t[p] - at) > EPS] if arcs[k].state else p for (k, _, at), p in zip(inner_junctions(arcs), freed)]
     return fixed, freed
@@ -173,7 +177,7 @@ def pin_arcs(tr, arcs: list[Arc], lbx: np.ndarray, ubx: np.ndarray, lbg: np.ndar
         # A coordinate reaches its bound tangentially: its rate is zero at the entry too (the arc's own points have it
         # from their constant polynomial; the entry's rate is the free interval's, which would otherwise arrive at speed
         # and stop within the arc's first interval, its input's jump smeared there: no root).
-        rate = entry_rate(tr, a.quantity) if a.state else None
+        rate = entry_rate(tr, a.quantity) if a.state and a.start > 0.0 else None
         if rate is not None:
             at = int(np.argmin(np.abs(tr.fractions - a.start)))
             lo, hi = (lbg, ubg) if rate[0] == "rows" else (lbx, ubx)
@@ -243,7 +247,7 @@ def find_arcs(solution) -> tuple[list[Arc], dict[str, float]]:
     largest magnitude; an input's that places a state's junctions, its bounds' or its largest value). Such a quantity is
     an input with an effort term (:func:`.switch_detection.penalized_inputs`), or where every input has one, a path
     constraint of the inputs or multipliers (the inputs follow the costates continuously, so does the constraint) or a
-    coordinate's or speed's bound over an arc inside the horizon (module notes); not a path constraint of the states
+    coordinate's or speed's bound over an arc (module notes); not a path constraint of the states
     alone, nor a transcription whose path rows are elsewhere (the condensed one)."""
     tr = solution.transcription
     pr = getattr(tr, "user_problem", tr.problem)
@@ -277,17 +281,20 @@ def find_arcs(solution) -> tuple[list[Arc], dict[str, float]]:
             if state:
                 # Reached tangentially, a state looks active before its junction (within ACTIVE of its scale): the
                 # junctions located over the run, its first and last.
-                inside = [x for x in at if t[i - 1] <= x <= t[min(j + 1, len(t) - 1)]]
-                if i <= 1 or j == len(t) - 1 or len(inside) < 2:
+                inside = [x for x in at if t[max(i - 1, 0)] <= x <= t[min(j + 1, len(t) - 1)]]
+                # From t0 or to the end (a motion that starts or ends at the bound): one junction, the other end none.
+                from_start, to_end = i <= 1, j == len(t) - 1
+                if (from_start and to_end) or len(inside) < 2 - from_start - to_end:
                     continue
-                start, end = min(inside), max(inside)
+                start = 0.0 if from_start else min(inside)
+                end = 1.0 if to_end else max(inside)
                 mesh = tr.scheme.mesh_fractions
-                if np.searchsorted(mesh, start) == np.searchsorted(mesh, end):
+                if not (from_start or to_end) and np.searchsorted(mesh, start) == np.searchsorted(mesh, end):
                     # Both junctions inside one interval: a touch, its NLP smeared over the interval's points (a
                     # fourth newcomer's cart-pole, whose cart touches its bound once: the secant on an entry and an
                     # exit crossed them over).
                     start = end = 0.5 * (start + end)
-                via = _kinking_input(solution, sorted(smooth), start)
+                via = _kinking_input(solution, sorted(smooth), end if from_start else start)
                 arcs.append(Arc(name, float(lo if s[i] < 0 else hi), start, end, state=True, via=via))
                 runs_of.append((i, j))
                 scale[name] = _scale(v, lo, hi)
