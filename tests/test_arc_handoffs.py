@@ -70,6 +70,9 @@ def test_a_force_handing_its_bound_to_the_power_limit_is_one_junction_and_meets_
     x, v, f = _closed_form(t)
     true_states = max(np.abs(sol.interpolate("block.x", t) - x).max(), np.abs(sol.interpolate("block.vbar_x", t) - v).max())
     true_input = np.abs(sol.interpolate("F", t) - f).max() / FMAX         # the inputs' estimate: relative to the largest
+    # the rate the problem names ("block.x_dot") reads the speed; the check of the end values reads it too (it raised)
+    assert np.array_equal(sol.interpolate("block.x_dot", t), sol.interpolate("block.vbar_x", t))
+    assert sol.violations() == []
     for true, estimate in ((true_states, record["estimate"]["states"]), (true_input, record["estimate"]["inputs"])):
         assert estimate / 10 <= true <= estimate <= 1e-6, (true, estimate)
 

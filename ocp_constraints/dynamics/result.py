@@ -81,6 +81,11 @@ class Result:
         """Values of a named quantity at every sample (see the module docstring for the names)."""
         cols = self.sample_columns()
         if name not in cols:
+            # A position's rate is its speed (the mass centre's, fixed basis): the name a problem's initial and final
+            # values accept ("block.x_dot") reads the speed's column rather than a copy of it.
+            body, _, coordinate = name.removesuffix("_dot").rpartition(".")
+            if name.endswith("_dot") and coordinate in ("x", "y", "z") and f"{body}.vbar_{coordinate}" in cols:
+                return cols[f"{body}.vbar_{coordinate}"]
             raise ModelError(unknown_name_message(name, list(cols), where=f"this {type(self).__name__}"))
         return cols[name]
 
