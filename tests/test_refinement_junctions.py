@@ -65,13 +65,17 @@ def _true_errors(sol) -> dict:
                    names(sol)).totals
 
 
-def test_refinement_at_a_speed_limit_keeps_its_estimate_above_the_closed_form_error():
-    """Whatever the outcome (junctions do not split: SPLIT_JUNCTIONS off; the estimate stalls near 3.7e-3 for the
-    multipliers, a kink inside an interval converging at first order), the estimate bounds the true error of
-    the states and multipliers, within 10x. A mesh point put at a junction located 2e-3 of the horizon late
-    (an experiment, 3735442) made the NLP hold the kink there, the companion too: true multiplier error 9.4e-4
-    against an estimate of 8e-4; this test would catch that."""
+def test_refinement_at_a_speed_limit_held_as_an_inequality_keeps_its_estimate_above_the_closed_form_error(monkeypatch):
+    """The limit held as an inequality (its arc not imposed, as before session 31: imposed_arcs._of_speeds made to
+    say no), whatever the outcome (the estimate stalls near 3.7e-3 for the multipliers, a kink inside an interval
+    converging at first order), the estimate bounds the true error of the states and multipliers, within 10x. A mesh
+    point put at a junction located 2e-3 of the horizon late (an experiment, 3735442) made the NLP hold the kink
+    there, the companion too: true multiplier error 9.4e-4 against an estimate of 8e-4; this test would catch that."""
+    import ocp_constraints.ocp.imposed_arcs as imposed
+
+    monkeypatch.setattr(imposed, "_of_speeds", lambda pr, label: False)
     sol = solve_to_tolerance(_block(), 1e-4, Radau(5, degree=3), max_refinements=6)
+    assert "input_arcs" not in sol.mesh_refinement
     est, true = sol.mesh_refinement["estimate"], _true_errors(sol)
     for q in ("states", "multipliers"):
         assert est[q] / 10 <= true[q] <= est[q], (q, true[q], est[q])
@@ -95,18 +99,22 @@ def test_an_interval_holding_a_floored_kink_is_not_flagged_or_halved_for_it():
     assert judged_smoothness((decay, tail), [bang])[0].tolist() == decay.tolist()
 
 
-def test_at_1e_5_the_speed_limit_is_met_with_an_estimate_that_bounds_the_closed_form_error():
-    """At 1e-4 and below the warm solves ask IPOPT for complementarity 1e-14 (mesh_solves.complementarity_tolerance):
-    with IPOPT's own 1e-4 the kinks at the junctions stayed rounded and 1e-5 was not met after 10 refinements
-    (multipliers' estimate 3.7e-5). Now met from the default first mesh, and the estimate of the states and of the
-    rail's load is above the closed-form error and within 10x of it."""
+def test_at_1e_5_the_speed_limit_is_imposed_on_its_arc_and_the_solution_is_the_closed_form():
+    """The limit is a path constraint of the speeds (subject_to): since session 31 its arc is imposed like a speed's
+    bound (imposed_arcs._of_speeds), its junctions placed where the push is continuous. They are the closed form's
+    T1 and T - T1, and the solution, piecewise polynomial, is the closed form's to rounding, below an estimate at its
+    floor. Before: the limit an inequality, met at 1e-5 with the estimate within 10x of the true error (with IPOPT's
+    own complementarity 1e-4, not met after 10 refinements)."""
     sol = solve_to_tolerance(_block(), 1e-5)
     mr = sol.mesh_refinement
     assert mr["met"], mr["message"]
-    assert mr["complementarity_tolerance"] == 1e-14
+    [arc] = mr["input_arcs"]
+    assert arc["quantity"] == "speed limit" and arc["path"] and arc["state"] and arc["value"] == VMAX
+    assert arc["start"] == pytest.approx(T1, abs=1e-9) and arc["end"] == pytest.approx(T - T1, abs=1e-9)
     est, true = mr["estimate"], _true_errors(sol)
+    assert true["states"] <= 1e-12 and true["multipliers"] <= 1e-9
     for q in ("states", "multipliers"):
-        assert est[q] / 10 <= true[q] <= est[q] <= 1e-5, (q, true[q], est[q])
+        assert true[q] <= est[q] <= 1e-5, (q, true[q], est[q])
 
 
 def test_a_push_leaving_its_bound_inside_an_interval_is_judged_by_a_companion_that_halves_it():

@@ -37,6 +37,8 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
+import casadi as ca
+
 import numpy as np
 
 from .arc_handoffs import handed_off
@@ -99,7 +101,13 @@ def on_rows(tr, arc: Arc) -> bool:
 
 
 def _row_label(arc: Arc) -> str:
-    return state_row(arc.quantity) if arc.state else arc.quantity
+    return state_row(arc.quantity) if arc.state and not arc.path else arc.quantity
+
+
+def _of_speeds(pr, label: str) -> bool:
+    """Whether path constraint ``label`` involves the speeds (its time derivative the accelerations: order one)."""
+    c = next(c for c in pr.path_constraints if c.label == label)
+    return bool(ca.depends_on(c.expression, pr.eqs.u))
 
 
 def _path_scale(tr, arc: Arc) -> float:
@@ -247,14 +255,18 @@ def find_arcs(solution) -> tuple[list[Arc], dict[str, float]]:
     largest magnitude; an input's that places a state's junctions, its bounds' or its largest value). Such a quantity is
     an input with an effort term (:func:`.switch_detection.penalized_inputs`), or where every input has one, a path
     constraint of the inputs or multipliers (the inputs follow the costates continuously, so does the constraint) or a
-    coordinate's or speed's bound over an arc (module notes); not a path constraint of the states
-    alone, nor a transcription whose path rows are elsewhere (the condensed one)."""
+    coordinate's or speed's bound over an arc (module notes), or a path constraint of the states that involves the
+    speeds (as a speed's bound, on its rows); not one of the coordinates alone, nor a transcription whose path rows
+    are elsewhere (the condensed one)."""
     tr = solution.transcription
     pr = getattr(tr, "user_problem", tr.problem)
     t = tr.fractions
     smooth, located, arcs, scale, runs_of = None, None, [], {}, []
     for name, v, lo, hi, state, continuous in bounded_quantities(solution):
-        if continuous and not state:
+        # A path constraint of the states that involves the speeds (order one: a joint's speed limit written with
+        # subject_to) is a state's bound in all but its rows: imposed as one, on its path rows.
+        of_speeds = continuous and not state and _of_speeds(pr, name)
+        if continuous and not state and not of_speeds:
             continue
         s, _ = activity(v, lo, hi)
         s[0] = 0                                    # t = 0: Radau's extrapolated input, the multipliers' acceleration level
@@ -273,6 +285,7 @@ def find_arcs(solution) -> tuple[list[Arc], dict[str, float]]:
                 continue
         elif (name not in smooth) if not path else (not every_input or path_rows(tr, name) is None):
             continue
+        state = state or of_speeds
         runs = np.flatnonzero(np.diff(np.concatenate([[0], (s != 0).astype(int), [0]])))
         for i, j in zip(runs[::2], runs[1::2] - 1):
             if j == i or s[i] != s[j] or np.any(s[i : j + 1] != s[i]):
@@ -295,7 +308,7 @@ def find_arcs(solution) -> tuple[list[Arc], dict[str, float]]:
                     # exit crossed them over).
                     start = end = 0.5 * (start + end)
                 via = _kinking_input(solution, sorted(smooth), end if from_start else start)
-                arcs.append(Arc(name, float(lo if s[i] < 0 else hi), start, end, state=True, via=via))
+                arcs.append(Arc(name, float(lo if s[i] < 0 else hi), start, end, path=of_speeds, state=True, via=via))
                 runs_of.append((i, j))
                 scale[name] = _scale(v, lo, hi)
                 scale[via] = _input_scale(solution, pr, via)
