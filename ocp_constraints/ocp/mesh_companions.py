@@ -171,7 +171,7 @@ RESTART_DEGREE = 3
 
 def low_degree(scheme: Radau, degree: int = RESTART_DEGREE) -> Radau:
     """``scheme`` at ``degree``, each interval cut into as many equal pieces as keep at least its points: the mesh a
-    refinement starts again from, cold, where a finer mesh did not solve (:func:`.mesh_progress.restarted`). From a
+    refinement starts again from, a multi-start, where a finer mesh did not solve (:func:`.mesh_progress.restarted`). From a
     guess far from the optimum a cold solve is surer at a low degree: a high degree's polynomials swing far between
     a poor guess's points, and IPOPT's steps with them (a seventh newcomer's URDF arm: Radau 7 x 20 from the problem's
     guess not solved in 3,000 iterations on one machine, in 20 on another; Radau 3 x 40 in 19 on both). The refinement

@@ -158,12 +158,12 @@ def solve_to_tolerance(problem, tolerance, method=None, ipopt_options: dict | No
     Returns the :class:`~ocp_constraints.ocp.solution.OCPSolution` on the last mesh, ``mesh_refinement`` filled in
     (module notes). A mesh IPOPT does not solve (warm, then with its own options, capped) stops the refinement, "met"
     False, with the last estimated solution (:func:`.mesh_progress.gave_up`; the first mesh's, estimate None, where its
-    companion failed: :func:`.mesh_progress.unestimated`), or starts it again once from that mesh solved cold
-    (:func:`.mesh_progress.restarted`). If the first mesh is not solved, or on Ctrl-C, :class:`OCPSolveError` is
+    companion failed: :func:`.mesh_progress.unestimated`), or, the motion not resolved, starts it again once from
+    a multi-start on the first mesh at a low degree (:func:`.mesh_progress.restarted`). If the first mesh is not solved, or on Ctrl-C, :class:`OCPSolveError` is
     raised, its ``solution.mesh_refinement`` holding the history so far (:func:`.mesh_progress.interrupted`)."""
     clock = started or (time.perf_counter(), time.process_time())
     sol = _refine(problem, tolerance, method, ipopt_options, warm_start, progress, max_refinements, clock=clock)
-    if (finer := sol.mesh_refinement.pop("finer_start", None)) is None:
+    if sol.mesh_refinement.pop("finer_start", None) is None:     # the refinement did not stop unresolved
         return sol
     cap = max(FALLBACK_MIN_ITER, FALLBACK_FACTOR * sol.mesh_refinement["history"][0].get("iterations", 0))   # as a retry
     cold = {"ipopt.max_iter": cap, **(ipopt_options or {})}
