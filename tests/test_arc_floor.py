@@ -128,16 +128,39 @@ def test_a_state_bounds_junction_put_at_a_mesh_point_floors_the_hinge_forces_est
         assert est.totals["multipliers"] >= half_gap * change * (1 - 1e-12)
 
 
-@pytest.mark.slow
-def test_the_wall_written_as_a_path_constraint_gets_the_same_floor(monkeypatch):
-    """The same wall as ``subject_to(x, upper=1/9)``, a path constraint of the coordinates alone: at 1e-6 the block's
-    speed on the wall was 1.72x the estimate; its rate (dx/dq N u, zero on the arc) over ||dx/dq N||_1 floors it
-    as the bound's does. The closed form judges it."""
+def _wall_as_a_path_constraint(monkeypatch) -> oc.OptimalControlProblem:
     problem = _bryson_denham(monkeypatch)
     del problem.bounds["block.x"]
     problem.subject_to(problem.quantity("block.x"), upper=WALL, label="wall")
-    sol = problem.solve(tolerance=1e-6)
+    return problem
+
+
+def test_the_wall_written_as_a_path_constraint_is_imposed_and_exact(monkeypatch):
+    """The same wall as ``subject_to(x, upper=1/9)``, a path constraint of the coordinates alone (order two), is imposed
+    as the bound is (since session 32; its rate held at zero at the entry on a free row): the junctions at Bryson and
+    Ho's 1/3 and 2/3, the block exact."""
+    sol = _wall_as_a_path_constraint(monkeypatch).solve(tolerance=1e-6)
     record = sol.mesh_refinement
     true = _true_errors(sol, np.linspace(0.0, 1.0, 2001))
+    assert record["met"]
+    [arc] = record["input_arcs"]
+    assert arc["quantity"] == "wall" and arc["state"] and arc["path"] and arc["via"] == "u"
+    assert arc["start"] == pytest.approx(1 / 3, abs=1e-9) and arc["end"] == pytest.approx(2 / 3, abs=1e-9)
+    assert true <= record["estimate"]["states"] and true < 1e-12
+
+
+@pytest.mark.slow
+def test_the_wall_written_as_a_path_constraint_gets_the_same_floor(monkeypatch):
+    """Not imposed (its rate row hidden from the refinement), the wall as a path constraint is an inequality: at 1e-6
+    the block's speed on the wall was 1.72x the estimate; its rate (dx/dq N u, zero on the arc) over ||dx/dq N||_1
+    floors it as the bound's does. The closed form judges it."""
+    from ocp_constraints.ocp import imposed_arcs
+
+    entry_rate = imposed_arcs.entry_rate
+    monkeypatch.setattr(imposed_arcs, "entry_rate", lambda tr, name: None if name == "wall" else entry_rate(tr, name))
+    sol = _wall_as_a_path_constraint(monkeypatch).solve(tolerance=1e-6)
+    record = sol.mesh_refinement
+    true = _true_errors(sol, np.linspace(0.0, 1.0, 2001))
+    assert not record.get("input_arcs")
     assert record["met"] and record["worst"]["states"] == "wall"
     assert 0.1 * record["estimate"]["states"] <= true <= record["estimate"]["states"]

@@ -31,7 +31,12 @@ newcomer's pendulum "met" 1e-5 with its hinge force 2.9x the estimate, entering 
 bound) has one junction; the end's own point is left to the boundary values and the bound's inequality (pinned as
 well, the two equalities on one point made the NLP's Jacobian rank-deficient). Until session 31 such arcs were not
 imposed: the fourteenth newcomer's block starting at its speed limit was not met at 1e-6 on 245 points; now 61
-points from 1e-4 to 1e-7, its error at rounding (``tests/test_refinement_state_arcs.py``).
+points from 1e-4 to 1e-7, its error at rounding (``tests/test_refinement_state_arcs.py``). A path constraint of the
+states is imposed as a state's bound, on its path rows (``path`` and ``state``): one with the speeds in it as a speed's
+(session 31), one of the coordinates alone (order two: a wall, a floor under a foot) as a coordinate's, its rate
+``dg/dq N(q) u + dg/dt`` on a free row held at zero at the entry (session 32). The stop pendulum's stop written as
+``sin(psi) >= sin 0.5`` was "met" at 1e-6 on 848 points with its hinge force 8.9x the estimate; imposed, 89 points and
+0.50 (``python scripts/order_two_paths/run.py pend_sin 1e-6``).
 """
 from __future__ import annotations
 
@@ -193,15 +198,16 @@ def pin_arcs(tr, arcs: list[Arc], lbx: np.ndarray, ubx: np.ndarray, lbg: np.ndar
 
 
 def entry_rate(tr, name: str) -> tuple[str, np.ndarray] | None:
-    """Where coordinate ``name``'s rate is held at each point: ``("rows", NLP rows)`` (joint coordinates: its free row),
-    ``("columns", decision variables)`` (maximal coordinates, where it is one speed: a translation's), else None (a
-    speed's bound, or a maximal angle whose rate mixes speeds)."""
+    """Where coordinate ``name``'s rate is held at each point: ``("rows", NLP rows)`` (joint coordinates: its free row;
+    a path constraint of the coordinates alone: its own), ``("columns", decision variables)`` (maximal coordinates,
+    where it is one speed: a translation's), else None (a speed's bound or path constraint, or a maximal angle whose
+    rate mixes speeds)."""
     pr = tr.problem
-    if name not in pr.model.coordinate_names:
-        return None
     if any(c.label == rate_row(name) for c in tr.nlp_path_constraints):
         rows = path_rows(tr, rate_row(name))
         return None if rows is None else ("rows", rows)
+    if name not in pr.model.coordinate_names:
+        return None
     j = single_speed(pr.eqs, pr.model.coordinate_names.index(name))
     if j is None or any(c.label == state_row(name) for c in tr.nlp_path_constraints):
         return None
@@ -256,8 +262,8 @@ def find_arcs(solution) -> tuple[list[Arc], dict[str, float]]:
     an input with an effort term (:func:`.switch_detection.penalized_inputs`), or where every input has one, a path
     constraint of the inputs or multipliers (the inputs follow the costates continuously, so does the constraint) or a
     coordinate's or speed's bound over an arc (module notes), or a path constraint of the states that involves the
-    speeds (as a speed's bound, on its rows); not one of the coordinates alone, nor a transcription whose path rows
-    are elsewhere (the condensed one)."""
+    speeds (as a speed's bound, on its rows) or of the coordinates alone (as a coordinate's, its rate on a free row);
+    not a transcription whose path rows are elsewhere (the condensed one)."""
     tr = solution.transcription
     pr = getattr(tr, "user_problem", tr.problem)
     t = tr.fractions
@@ -265,8 +271,11 @@ def find_arcs(solution) -> tuple[list[Arc], dict[str, float]]:
     for name, v, lo, hi, state, continuous in bounded_quantities(solution):
         # A path constraint of the states that involves the speeds (order one: a joint's speed limit written with
         # subject_to) is a state's bound in all but its rows: imposed as one, on its path rows.
+        # One of the coordinates alone (order two: a wall, a floor under a link's tip) is a coordinate's bound in all
+        # but its rows: its rate held at the entry on its free "rate of" row (entry_rate).
         of_speeds = continuous and not state and _of_speeds(pr, name)
-        if continuous and not state and not of_speeds:
+        of_coordinates = continuous and not state and not of_speeds
+        if of_coordinates and entry_rate(tr, name) is None:
             continue
         s, _ = activity(v, lo, hi)
         s[0] = 0                                    # t = 0: Radau's extrapolated input, the multipliers' acceleration level
@@ -285,7 +294,8 @@ def find_arcs(solution) -> tuple[list[Arc], dict[str, float]]:
                 continue
         elif (name not in smooth) if not path else (not every_input or path_rows(tr, name) is None):
             continue
-        state = state or of_speeds
+        path_state = of_speeds or of_coordinates
+        state = state or path_state
         runs = np.flatnonzero(np.diff(np.concatenate([[0], (s != 0).astype(int), [0]])))
         for i, j in zip(runs[::2], runs[1::2] - 1):
             if j == i or s[i] != s[j] or np.any(s[i : j + 1] != s[i]):
@@ -308,7 +318,7 @@ def find_arcs(solution) -> tuple[list[Arc], dict[str, float]]:
                     # exit crossed them over).
                     start = end = 0.5 * (start + end)
                 via = _kinking_input(solution, sorted(smooth), end if from_start else start)
-                arcs.append(Arc(name, float(lo if s[i] < 0 else hi), start, end, path=of_speeds, state=True, via=via))
+                arcs.append(Arc(name, float(lo if s[i] < 0 else hi), start, end, path=path_state, state=True, via=via))
                 runs_of.append((i, j))
                 scale[name] = _scale(v, lo, hi)
                 scale[via] = _input_scale(solution, pr, via)

@@ -31,7 +31,7 @@ from .guess import consistent_guess
 from .joint_guess import JointGuess
 from .solution import OCPSolution
 from .transcription import Transcription
-from .transcription_elements import free_rate_row, state_row
+from .transcription_elements import free_rate_row, of_coordinates, path_rate, state_row
 from ..dynamics.trajectory import Trajectory
 
 
@@ -50,10 +50,13 @@ class ReducedProblem:
         for n, (lo, hi) in self.state_bounds.items():
             self.path_constraints.append(SimpleNamespace(label=state_row(n), expression=self.translate(problem.quantity(n)),
                                                          lower=lo, upper=hi, scale=1.0))
-        # A bounded coordinate's rate, a free row (free_rate_row).
+        # A bounded coordinate's rate, and a path constraint's of the coordinates alone: free rows (free_rate_row).
         for n in self.state_bounds:
             if n in problem.model.coordinate_names:
                 self.path_constraints.append(free_rate_row(n, self.translate(problem.quantity(f"{n}_dot"))))
+        for c in problem.path_constraints:
+            if of_coordinates(problem, c):
+                self.path_constraints.append(free_rate_row(c.label, self.translate(path_rate(problem, c))))
 
     def __getattr__(self, name):
         return getattr(self.original, name)

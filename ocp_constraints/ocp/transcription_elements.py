@@ -36,7 +36,8 @@ class ElementKinds:
     def nlp_path_constraints(self) -> list:
         """The NLP's path rows: the problem's (a joint-coordinate view's hold its state bounds and their rates), and in
         the maximal form a free row of each bounded coordinate's rate where it is no single speed (an Euler angle's),
-        which a refinement holds at zero at an arc's entry (:mod:`.imposed_arcs`)."""
+        and of each path constraint of the coordinates alone (:func:`of_coordinates`), which a refinement holds at zero
+        at an arc's entry (:mod:`.imposed_arcs`)."""
         kept = self.__dict__.get("_nlp_path")
         if kept is None:
             pr, rows = self.problem, list(self.problem.path_constraints)
@@ -44,6 +45,7 @@ class ElementKinds:
                 names = pr.model.coordinate_names
                 rows += [free_rate_row(n, pr.quantity(f"{n}_dot"))
                          for n in pr.bounds if n in names and single_speed(pr.eqs, names.index(n)) is None]
+                rows += [free_rate_row(c.label, path_rate(pr, c)) for c in pr.path_constraints if of_coordinates(pr, c)]
             kept = self.__dict__["_nlp_path"] = rows
         return kept
 
@@ -312,6 +314,22 @@ def free_rate_row(name: str, rate) -> SimpleNamespace:
     """A free path row (no bounds) of coordinate ``name``'s ``rate``: a refinement holds it at zero at the entry of an
     arc on the coordinate's bound, which the coordinate reaches tangentially (.imposed_arcs)."""
     return SimpleNamespace(label=rate_row(name), expression=rate, lower=-np.inf, upper=np.inf, scale=1.0)
+
+
+def of_coordinates(pr, constraint) -> bool:
+    """Whether a path constraint is of the coordinates (and time) alone, no speed, input or multiplier in it: its
+    second time derivative holds the accelerations (order two, like a coordinate's bound), and it reaches its bound
+    tangentially, its rate zero there (.imposed_arcs)."""
+    e, c = pr.eqs, constraint.expression
+    others = ca.vertcat(e.u, e.inputs, pr.lam)
+    return bool(ca.depends_on(c, e.q)) and not (others.numel() and ca.depends_on(c, others))
+
+
+def path_rate(pr, constraint) -> ca.SX:
+    """A path constraint's time derivative along the motion, ``dg/dq N(q) u + dg/dt`` (the bodies' kinematics ``q' = N(q)
+    u``, :attr:`.SystemEquations.qdot`), in the problem's maximal coordinates."""
+    e = pr.eqs
+    return ca.jtimes(constraint.expression, e.q, e.qdot) + ca.jacobian(constraint.expression, e.t)
 
 
 def single_speed(eqs, i: int) -> int | None:
