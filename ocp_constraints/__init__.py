@@ -14,6 +14,7 @@ import importlib
 
 from ._version import __version__
 from .errors import (
+    AmbiguousPoseWarning,
     CompilerError,
     CompilerNotFoundError,
     DataFileError,

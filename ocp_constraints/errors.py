@@ -55,6 +55,12 @@ class JumpWindowWarning(UserWarning):
     they are only known at the points, and the error estimate does not cover them."""
 
 
+class AmbiguousPoseWarning(UserWarning):
+    """Initial or final values that two poses meet, each locally determined (one quaternion parameter of a hinged body
+    fixed: ``theta`` or ``-theta``): IPOPT lands in either, depending on its start
+    (:func:`~ocp_constraints.ocp.boundary_poses.ambiguous_boundary_poses`)."""
+
+
 class QuaternionSignWarning(UserWarning):
     """A quaternion's initial and final values on opposite sheets (``q0 . qf < 0``): ``qf`` and ``-qf`` are one
     orientation, but the motion to ``qf`` turns a full turn more than the motion to ``-qf``."""

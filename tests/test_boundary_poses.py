@@ -1,7 +1,7 @@
 """ambiguous_boundary_poses: end values that leave a quaternion's sign free, so that two mirrored poses meet them.
 
-The two-link planar arm of tests/test_refinement_user_problems.py (the seventh newcomer's URDF arm, copied here: that
-module is slow to collect alongside), joints about E3, so link k's quaternion is (cos a_k/2, 0, 0, sin a_k/2) with a_k
+The two-link planar arm of tests/test_refinement_user_problems.py (the seventh newcomer's URDF arm, its ARM_URDF),
+joints about E3, so link k's quaternion is (cos a_k/2, 0, 0, sin a_k/2) with a_k
 its absolute angle (a_1 = theta1, a_2 = theta1 + theta2). Fixing only cos(a_2/2) leaves a_2 and -a_2: link2.qz is
 +sin(a_2/2) or -sin(a_2/2), values computed here from the angles alone.
 """
@@ -12,28 +12,8 @@ import pytest
 
 import ocp_constraints as oc
 from ocp_constraints.ocp.boundary_poses import ambiguous_boundary_poses
+from test_refinement_user_problems import ARM_URDF
 
-ARM_URDF = """<?xml version="1.0"?>
-<robot name="planar_arm2">
-  <link name="base_link"/>
-  <link name="link1">
-    <inertial><origin xyz="0.25 0 0" rpy="0 0 0"/><mass value="1.0"/>
-      <inertia ixx="0.0001" ixy="0" ixz="0" iyy="0.0208333333333" iyz="0" izz="0.0208333333333"/></inertial>
-  </link>
-  <link name="link2">
-    <inertial><origin xyz="0.2 0 0" rpy="0 0 0"/><mass value="0.8"/>
-      <inertia ixx="0.0001" ixy="0" ixz="0" iyy="0.0106666666667" iyz="0" izz="0.0106666666667"/></inertial>
-  </link>
-  <joint name="shoulder" type="revolute">
-    <parent link="base_link"/><child link="link1"/><origin xyz="0 0 0" rpy="0 0 0"/><axis xyz="0 0 1"/>
-    <limit lower="-3.5" upper="3.5" effort="100" velocity="50"/>
-  </joint>
-  <joint name="elbow" type="revolute">
-    <parent link="link1"/><child link="link2"/><origin xyz="0.5 0 0" rpy="0 0 0"/><axis xyz="0 0 1"/>
-    <limit lower="-3.5" upper="3.5" effort="100" velocity="50"/>
-  </joint>
-</robot>
-"""
 START = np.array([-np.pi / 2, 0.0])
 THETA1, THETA2 = np.pi / 4, np.pi / 3       # the end asked for (shoulder, elbow), rad
 
@@ -115,3 +95,20 @@ def test_no_values_fixed_at_either_end_is_not_ambiguous(robot):
     assert ambiguous_boundary_poses(problem) == []
     problem.final({"link1.omega_z": 0.0, "link2.omega_z": 0.0})      # speeds only: still no coordinate fixed
     assert ambiguous_boundary_poses(problem) == []
+
+
+def test_solve_warns_of_a_mirrored_final_pose_before_ipopt_starts(robot):
+    """The check runs in ``solve``'s own checks (``check_problem``): the user sees an ``AmbiguousPoseWarning`` naming
+    the body, whatever IPOPT then does; with both parameters fixed there is no warning."""
+    import warnings
+
+    from ocp_constraints.ocp.diagnostics import check_problem
+
+    method = oc.Radau(mesh=tuple(np.linspace(0.0, 1.0, 5)), degrees=(3,) * 4)
+    with pytest.warns(oc.AmbiguousPoseWarning, match=r"Body 'link2' \(link2.qw fixed\)"):
+        check_problem(_arm(robot), method)
+    problem = _arm(robot)
+    robot.set_boundary(problem, "final", np.array([THETA1, THETA2]))
+    with warnings.catch_warnings():
+        warnings.simplefilter("error", oc.AmbiguousPoseWarning)
+        check_problem(problem, method)

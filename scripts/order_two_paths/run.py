@@ -16,8 +16,7 @@ import numpy as np
 HERE = Path(__file__).resolve().parent
 sys.path.insert(0, str(HERE.parents[1] / "tests"))
 import ocp_constraints as oc  # noqa: E402
-from test_refinement_state_arcs import (pendulum_on_a_stop, _phase_reference, STOP, LENGTH, MASS, K, INERTIA, G,  # noqa: E402
-                                        T_FINAL)
+from test_refinement_state_arcs import LENGTH, STOP, _phase_reference, _true_errors, pendulum_on_a_stop  # noqa: E402
 
 
 def pendulum(kind, coordinates):
@@ -45,18 +44,7 @@ def bd(coordinates):
 
 def true_pendulum(sol, record):
     t1, t2, reference = _phase_reference()
-    mesh = np.asarray(record["mesh"]) * T_FINAL
-    t = np.unique(np.concatenate([np.linspace(a, b, 17) for a, b in zip(mesh[:-1], mesh[1:])]
-                                 + [[x - 1e-9, x + 1e-9] for x in (t1, t2)]))
-    psi, omega, torque = np.array([reference(x) for x in t]).T
-    acc = (torque - K * np.sin(psi)) / INERTIA
-    r = LENGTH / 2
-    states = {"rod.psi": psi, "rod.omega_z": omega, "rod.vbar_x": r * np.cos(psi) * omega, "rod.vbar_y": r * np.sin(psi) * omega}
-    forces = {"hinge.v1.lambda": MASS * r * (np.cos(psi) * acc - np.sin(psi) * omega ** 2),
-              "hinge.v2.lambda": MASS * r * (np.sin(psi) * acc + np.cos(psi) * omega ** 2) + MASS * G}
-    ts = max(np.abs(sol.interpolate(n, t) - v).max() for n, v in states.items())
-    tl = max(np.abs(sol.interpolate(n, t) - v).max() for n, v in forces.items()) / record["load_scale"]
-    return ts, tl, (t1, t2)
+    return (*_true_errors(sol, t1, t2, reference), (t1, t2))
 
 
 def true_bd(sol, record):

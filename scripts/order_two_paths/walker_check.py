@@ -7,12 +7,11 @@ import sys
 import time
 from pathlib import Path
 
-import numpy as np
-
 ROOT = Path(__file__).resolve().parents[2]
 sys.path.insert(0, str(ROOT / "scripts"))
+sys.path.insert(0, str(Path(__file__).resolve().parent))
 import ocp_default_robustness  # noqa: E402
-import ocp_constraints as oc  # noqa: E402
+from uniform import compare  # noqa: E402
 
 ap = argparse.ArgumentParser()
 ap.add_argument("--tol", type=float, default=1e-5)
@@ -27,13 +26,4 @@ print(f"refined {a.tol:g}: met {rec['met']}, {len(sol.t)} points, {time.process_
 for arc in rec.get("input_arcs", []):
     print("  arc", {k: arc[k] for k in ("quantity", "value", "start", "end", "state", "path", "via")})
 pr0 = build()
-names = pr0.model.coordinate_names + pr0.model.speed_names
-T = sol.t_final
-grid = np.linspace(0.0, T, 3001)
-for n in a.intervals:
-    c = time.process_time()
-    fixed = build().solve(oc.Radau(mesh=tuple(np.linspace(0, 1, n + 1)), degrees=(5,) * n), warm_start=sol)
-    d = {x: np.abs(sol.interpolate(x, grid) - fixed.interpolate(x, grid)) for x in names}
-    worst = max(d, key=lambda x: d[x].max())
-    print(f"Radau 5 x {n}: J = {fixed.objective:.10f} ({fixed.objective - sol.objective:+.2e}), states differ by {d[worst].max():.2e} "
-          f"({worst} at t = {grid[np.argmax(d[worst])]:.4f} s), {time.process_time() - c:.1f} s CPU")
+compare(build, sol, pr0.model.coordinate_names + pr0.model.speed_names, a.intervals)
