@@ -110,6 +110,9 @@ def radau(d):
     return tau, D, C
 
 
+CONTINUITY = False   # set by --continuity
+
+
 def solve(Ns, constrained, guess=None, H=None, fix=None):
     """Ns: intervals per phase (1 or 3 phases). Returns dict with the nodes and values."""
     f, Y, *_ = sym()
@@ -155,6 +158,17 @@ def solve(Ns, constrained, guess=None, H=None, fix=None):
                 opti.subject_to(y0[1] == 0)
         xprev = Xs[-1][:, DEG]
         phases.append((Xs, Us))
+    if constrained and nph == 3 and CONTINUITY:
+        # Both torques continuous at each junction (a necessary condition: the integrand is strictly convex in them;
+        # Jacobson, Lele and Speyer 1971): without it J is flat in the junction times, which moved 5e-6 s between
+        # 60x3 and 120x3 (ref_fivebar_uncertainty.txt). The phase's last point is its end; the next phase's inputs
+        # are extrapolated to its start through its first interval's collocation points.
+        nodes = tau[1:]
+        ell = [float(np.prod([(0.0 - nodes[r]) / (nodes[j] - nodes[r]) for r in range(DEG) if r != j])) for j in range(DEG)]
+        for ph in (0, 1):
+            end = phases[ph][1][-1][:, DEG - 1]
+            start = sum(ell[j] * phases[ph + 1][1][0][:, j] for j in range(DEG))
+            opti.subject_to(end == start)
     opti.subject_to(phases[0][0][0][:, 0] == ca.DM([th0[0], th0[1], 0, 0]))
     opti.subject_to(xprev == ca.DM([thT[0], thT[1], 0, 0]))
     opti.minimize(J)
@@ -316,6 +330,9 @@ def compare(r1, r2, T):
 
 if __name__ == "__main__":
     a = sys.argv[1:]
+    if "--continuity" in a:         # the torques continuous at the junctions (solve()); saved as ref_fivebar.pkl all the same
+        a.remove("--continuity")
+        CONTINUITY = True
     T = FB["T"]
     if a[0] == "free":
         N = int(a[1])
