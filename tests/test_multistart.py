@@ -84,13 +84,19 @@ def test_multistart_finds_the_better_optimum_and_reports_both(optima, in_process
     assert best.multistart["best_start"] in best.local_optima[0]["starts"]
 
 
-def test_dask_local_cluster_gives_the_same_starts_as_in_process():
+@pytest.fixture(scope="module")
+def dask_client():
+    """A real Dask cluster: two worker processes, one thread each (the starts go to them pickled)."""
     distributed = pytest.importorskip("distributed")
-    problem = _straight_line_swing_up()
-    local = _straight_line_swing_up().solve(METHOD, starts=2, seed=0)      # the same two starts, in-process
     with distributed.LocalCluster(n_workers=2, threads_per_worker=1, processes=True, dashboard_address=None) as cluster, \
             distributed.Client(cluster) as client:
-        remote = problem.solve(METHOD, starts=2, seed=0, client=client)     # one start per worker
+        yield client
+
+
+def test_dask_local_cluster_gives_the_same_starts_as_in_process(dask_client):
+    problem = _straight_line_swing_up()
+    local = _straight_line_swing_up().solve(METHOD, starts=2, seed=0)      # the same two starts, in-process
+    remote = problem.solve(METHOD, starts=2, seed=0, client=dask_client)    # one start per worker
     assert remote.multistart["executor"].startswith("dask")
     # The same starts (drawn from (seed, k) wherever they run), the same IPOPT: the same optima.
     assert [s.status for s in remote.starts] == [s.status for s in local.starts]
@@ -101,6 +107,18 @@ def test_dask_local_cluster_gives_the_same_starts_as_in_process():
     # The best start rebuilt here is a whole solution of this problem.
     assert remote.transcription is problem.transcription(METHOD)
     np.testing.assert_allclose(remote.sample("motor"), local.sample("motor"), atol=1e-6)
+
+
+def test_a_multistart_on_dask_after_a_first_solve_in_maximal_coordinates_ships_the_problem(dask_client):
+    """A first solve in maximal coordinates projects its guess onto the constraints and keeps the projection's compiled
+    function, buffers and lock on the equations; the problem then goes to the workers pickled. That raised "cannot
+    pickle '_thread.lock' object" before session 32. The starts are the in-process ones."""
+    problem = _straight_line_swing_up()
+    problem.solve(METHOD)
+    assert any(k.startswith("_projection") for k in problem.eqs.__dict__)      # what the first solve left there
+    local = _straight_line_swing_up().solve(METHOD, starts=2, seed=0)
+    remote = problem.solve(METHOD, starts=2, seed=0, client=dask_client)
+    assert [s.objective for s in remote.starts] == pytest.approx([s.objective for s in local.starts], rel=1e-9)
 
 
 def test_perturbations_keep_the_fixed_ends_and_depend_only_on_seed_and_start():

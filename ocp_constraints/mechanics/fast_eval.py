@@ -38,6 +38,13 @@ class Buffered:
         for i, r in enumerate(self._res):
             self._buffer.set_res(i, memoryview(r))
 
+    def __reduce__(self):
+        # Pickled as its function alone: the buffer's pointers and the lock are this process's. A problem goes to Dask
+        # workers pickled with its equations' caches (multistart), and a Buffered kept there after a first solve in
+        # maximal coordinates (the guess's projection) made solve(starts=N, client=...) fail: "cannot pickle
+        # '_thread.lock' object" (tests/test_multistart.py).
+        return Buffered, (self.function,)
+
     def __call__(self, *args) -> list[np.ndarray]:
         with self._lock:   # one buffer: calls from several threads take turns
             for i, a in enumerate(args):
