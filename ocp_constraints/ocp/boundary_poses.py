@@ -16,7 +16,6 @@ from __future__ import annotations
 
 import functools
 import itertools
-import weakref
 
 import numpy as np
 
@@ -25,9 +24,6 @@ from ..mechanics.rotations import UnitQuaternion
 
 CONVERGED = 1e-10      # max |residual| of a configuration kept as a solution
 SAME_ROTATION = 1e-6   # max |R1 - R2| below which two rotation matrices are one rotation
-# Per SystemEquations: the rows' Function and the consistent configurations. Not in eqs.__dict__: a problem goes to Dask
-# workers pickled (multistart), and a Buffered holds a lock, which does not pickle.
-_CACHE: weakref.WeakKeyDictionary = weakref.WeakKeyDictionary()
 
 
 def ambiguous_boundary_poses(problem) -> list[str]:
@@ -42,13 +38,14 @@ class _Rows:
     """``position_rows`` of a model at one time and inputs: residual, Jacobian (dense) and every body's ``vec(Q)``."""
 
     def __init__(self, eqs, t: float, w: np.ndarray):
-        if eqs not in _CACHE:       # built once per problem (~20 ms for ten bodies: the Jacobian)
+        cache = eqs.__dict__.get("_boundary_poses")
+        if cache is None:           # built once per model's equations (~20 ms for ten bodies: the Jacobian)
             import casadi as ca
 
             rows, R = eqs.position_rows, ca.vertcat(*[ca.vec(b.Q) for b in eqs.bodies])
-            _CACHE[eqs] = {"starts": {}, "parts": Buffered(ca.Function(
+            cache = eqs.__dict__["_boundary_poses"] = {"starts": {}, "parts": Buffered(ca.Function(
                 "boundary_pose_parts", [eqs.q, eqs.t, eqs.inputs], [rows, ca.densify(ca.jacobian(rows, eqs.q)), R]))}
-        parts, self.w, self.starts = _CACHE[eqs]["parts"], w, _CACHE[eqs]["starts"]
+        parts, self.w, self.starts = cache["parts"], w, cache["starts"]
         self.at = lambda q: parts(q, t, w)
         # (name, first, end, is a quaternion) of each body's rotation parameters in q (after its 3 position ones)
         self.bodies = [(b.name, int(e - b.q.numel() + 3), int(e), isinstance(b.rotation, UnitQuaternion))

@@ -51,7 +51,6 @@ def check_problem(problem, method) -> Diagnostics:
     _check_guesses(problem, method)
     _check_boundary_bounds(problem)
     _check_quaternion_ends(problem)
-    _check_mirrored_poses(problem)
     t0, tf = 0.0, float(problem.t_final)
     free = problem.free_initial_values
     q0, pos_dof = _positions(problem, problem.initial_values, t0, "initial", free)
@@ -62,6 +61,7 @@ def check_problem(problem, method) -> Diagnostics:
     if problem.final_values:
         qf, _ = _positions(problem, problem.final_values, tf, "final", None)
         _speeds(problem, qf, problem.final_values, tf, "final", None)
+    _check_mirrored_poses(problem)      # after the ends' values are known to be on the constraints
     n_vars = nlp_variables(problem, method)
     estimate = BASE_BYTES + n_vars * BYTES_PER_VARIABLE
     available = _available_memory()
