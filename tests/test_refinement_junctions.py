@@ -343,3 +343,62 @@ def test_a_path_constraint_whose_input_derivative_vanishes_on_its_arc_is_not_imp
     # The outer arcs whole; the middle one only on its regular pieces, open towards plumb (.path_regularity).
     assert len(rope) == 4 and all(not a.start <= plumb <= a.end for a in rope), (rope, plumb)
     assert sum(a.open_end for a in rope) == 1 and sum(a.open_start for a in rope) == 1
+
+
+def _least_time_block(eps: float) -> tuple[OptimalControlProblem, dict]:
+    """A 2 kg block pushed rest to rest over 1 m by |F| <= 4 N, 0.5 m above its centre (the rail's moment is 0.5 F, a
+    load that jumps with the force), in least time plus ``eps`` times its effort, and its
+    closed form (Pontryagin with a free final time, H = 0): F at +4 N up to t1, then down a line to -4 N over
+    [t1, T - t1], then at -4 N; the line's half-width delta = 2 eps m v_mid F_max (where F = -p_v / (2 eps m) reaches
+    the bound, p_v = (t - T/2) / v_mid), and x(T/2) = D/2 fixes v_mid."""
+    from scipy.optimize import brentq
+
+    m, dist, f_max = 2.0, 1.0, 4.0
+    a = f_max / m
+
+    def half_way(v_mid):            # x at T/2 (the line's middle) less D/2
+        delta = 2 * eps * m * v_mid * f_max
+        t1 = v_mid / a - delta / 2
+        return a * t1**2 / 2 + a * t1 * delta + a * delta**2 / 3 - dist / 2
+
+    v_mid = brentq(half_way, 1e-3, 10.0, xtol=1e-15, rtol=1e-15)
+    delta = 2 * eps * m * v_mid * f_max
+    t1 = v_mid / a - delta / 2
+    t_final = 2 * (t1 + delta)
+    closed = {"t_final": t_final, "objective": t_final + 2 * eps * f_max**2 * (t1 + delta / 3), "t1": t1}
+
+    model = Model("least_time_block")
+    block = model.add_body("block", m, 0.1 * np.eye(3), rotation="321")
+    joints.prismatic(model, "rail", block.com, axis=(1, 0, 0))
+    push = model.add_input("F")
+    model.add_force("push", block.point("above", (0.0, 0.5, 0.0)), ca.vertcat(push, 0, 0))
+    problem = OptimalControlProblem(model, t_final=2.0, t_final_bounds=(0.2, 20.0))
+    problem.initial({"block.x": 0.0, "block.x_dot": 0.0})
+    problem.final({"block.x": dist, "block.x_dot": 0.0})
+    problem.bound("F", -f_max, f_max)
+    problem.minimize_final_time()
+    problem.minimize_effort(weight=eps)
+    return problem, closed
+
+
+def test_two_arcs_of_one_input_a_short_line_apart_are_imposed_and_meet_the_closed_form():
+    """Effort weight 1e-6: the force leaves +4 N and reaches -4 N within 3.2e-5 of the horizon. The two junctions
+    each get their own mesh point (they once shared one, which freed the second arc's points: the NLP then
+    pushed with -2,700 N there), and the secant keeps them in order; before, 1e-6 was not met on 1,721 points."""
+    problem, closed = _least_time_block(1e-6)
+    sol = problem.solve(tolerance=1e-6)
+    mr = sol.mesh_refinement
+    assert mr["met"], mr["message"]
+    assert [a["value"] for a in mr["input_arcs"]] == [4.0, -4.0]
+    assert mr["input_arcs"][0]["end"] == pytest.approx(closed["t1"], abs=1e-9)
+    assert sol.t_final == pytest.approx(closed["t_final"], abs=1e-9)
+    assert sol.objective == pytest.approx(closed["objective"], abs=1e-9)
+    assert sol.transcription.scheme.point_count < 400
+
+
+def test_junctions_closer_than_a_mesh_interval_each_get_a_mesh_point():
+    from ocp_constraints.ocp.imposed_arcs import with_junction_points
+
+    scheme = with_junction_points(Radau(10, degree=4), [0.49999, 0.50002])
+    assert {0.49999, 0.50002} <= set(scheme.mesh_fractions)
+    assert len(scheme.mesh_fractions) == 12 and scheme.point_count == 4 * 11 + 1

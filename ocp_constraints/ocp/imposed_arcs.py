@@ -377,17 +377,23 @@ def _nearest(located: list[float], a: float, b: float) -> float:
 
 def with_junction_points(scheme: Radau, times: list[float]) -> Radau:
     """``scheme`` with a mesh point at each junction (fractions of the horizon): the nearest mesh point moved there where it lies within a
-    quarter of its shorter interval (not the ends), else the interval holding it split there (both pieces at its
-    degree)."""
+    quarter of its shorter interval (not the ends, nor a point an earlier junction was put on: two junctions closer
+    than a mesh interval, a short free arc between two arcs, each get their own point), else the interval holding it
+    split there (both pieces at its degree)."""
     mesh = list(scheme.mesh_fractions)
     degrees = list(np.asarray(scheme.degrees if scheme.degrees is not None else [scheme.degree] * scheme.intervals))
+    placed: set = set()
     for at in sorted(times):
         k = int(np.argmin(np.abs(np.asarray(mesh) - at)))
+        if mesh[k] == at:
+            placed.add(at)
+            continue
         shorter = min(mesh[k] - mesh[k - 1] if k > 0 else np.inf, mesh[k + 1] - mesh[k] if k + 1 < len(mesh) else np.inf)
-        if 0 < k < len(mesh) - 1 and abs(mesh[k] - at) <= 0.25 * shorter:
+        if 0 < k < len(mesh) - 1 and abs(mesh[k] - at) <= 0.25 * shorter and mesh[k] not in placed:
             mesh[k] = at
         else:
             j = int(np.searchsorted(mesh, at)) - 1
             mesh.insert(j + 1, at)
             degrees.insert(j, degrees[j])
+        placed.add(at)
     return Radau(mesh=tuple(float(m) for m in mesh), degrees=tuple(int(d) for d in degrees))
