@@ -38,6 +38,11 @@ TRIES = 2
 # hinge-force bound, its arc tried at estimates 2.2 and 0.95 and never again: 1e-4 met on 1,583 points in 28 s of CPU;
 # tried again at 0.04, on 624 points in 4 s.
 RETRY_DROP = 0.1
+# And each time its junctions are located this much more precisely than at its last try (the gap between the
+# collocation points around each, the largest): a near bang-bang input's arcs found on a coarse mesh, their junctions
+# 2% of the horizon off, can lead the secant to a second root (the fourteenth newcomer's least-time pendulum with
+# effort 1e-6), while the estimate stays at the size of the input's jump, whatever the mesh.
+RETRY_SHARPER = 0.1
 # The first imposition's solves: IPOPT's CPU capped at CAP_FACTOR times the located solution's own solve, MIN_CAP_S at least.
 CAP_FACTOR, MIN_CAP_S = 20.0, 2.0
 # A secant step after which the largest mismatch has grown more than GROWTH-fold is halved, up to HALVINGS times in a row.
@@ -213,24 +218,30 @@ def align_junctions(problem, scheme, solution, tol: float, options: dict, progre
     """The first imposition of ``solution``'s arcs (:func:`solve_on_arcs` from their located junctions):
     ``(solution, wall s, CPU s, mesh, arc_set)``, or None where there is no inner junction, a step is not solved, the
     steps do not converge or the arcs are not found to hold (module notes). ``tried``: the arc structures tried before
-    (quantity, value, inner start, inner end of each arc) with the estimate ``score`` each was tried at (None once
-    tried again), :data:`TRIES` in all, each tried again once where the estimate has fallen by :data:`RETRY_DROP`
-    since; this one is added. A
+    (quantity, value, inner start, inner end of each arc) with the estimate ``score`` each was first tried at (None once
+    tried again for it) and the junctions' spread at its last try, :data:`TRIES` in all; each is tried again once where
+    the estimate has fallen by :data:`RETRY_DROP` since its first try, and each time the spread has fallen by
+    :data:`RETRY_SHARPER` since its last; this one is added. A
     finer mesh can show an arc the first did not (a rod whose torque sits on its bound for the first 0.5% of the
     horizon: no collocation point of the first mesh falls there)."""
     arcs, scale = find_arcs(solution)
     structure = tuple((a.quantity, a.value, a.start > 0.0, a.end < 1.0, is_touch(a)) for a in arcs)
-    if not inner_junctions(arcs):
+    if not (inner := inner_junctions(arcs)):
         return None
+    t = solution.transcription.fractions
+    spread = max(float(np.diff(t)[min(max(np.searchsorted(t, at) - 1, 0), len(t) - 2)]) for _, _, at in inner)
     if structure in tried:
-        last = tried[structure]
-        if last is None or not score <= RETRY_DROP * last:
+        first_score, spread_then = tried[structure]     # first_score None once the estimate's retry is spent
+        if first_score is not None and score <= RETRY_DROP * first_score:
+            tried[structure] = (None, spread)
+        elif spread <= RETRY_SHARPER * spread_then:
+            tried[structure] = (first_score, spread)
+        else:
             return None
-        tried[structure] = None
     elif len(tried) >= TRIES:
         return None
     else:
-        tried[structure] = score
+        tried[structure] = (score, spread)
     # Each step's IPOPT capped in CPU (unless the options cap it): an imposed NLP whose arcs fix one another can be
     # singular, and MUMPS then spends minutes per solve to fail (the least-time crane at 1e-4: a step of 52 intervals,
     # 'Infeasible_Problem_Detected' after 166 s of CPU, where the whole refinement takes 12).
