@@ -402,3 +402,22 @@ def test_junctions_closer_than_a_mesh_interval_each_get_a_mesh_point():
     scheme = with_junction_points(Radau(10, degree=4), [0.49999, 0.50002])
     assert {0.49999, 0.50002} <= set(scheme.mesh_fractions)
     assert len(scheme.mesh_fractions) == 12 and scheme.point_count == 4 * 11 + 1
+
+
+def test_a_failed_arc_structure_is_retried_once_for_the_estimate_and_each_time_its_junctions_sharpen_tenfold():
+    """The retry rule of junction_times.try_due, as the fourteenth newcomer's near bang-bang block needs it: the
+    spread's retries (each 10x sharper than the last try) must not spend the estimate's one retry (10x below the first
+    try's estimate), which is the one whose arcs held there (1e-4 met on 691 points; spent, not met on 901)."""
+    from ocp_constraints.ocp import junction_times as jt
+
+    tried, a, b, c = {}, ("F",), ("G",), ("H",)
+    assert jt.try_due(tried, a, 0.11, 2.4e-3)                       # first try
+    assert not jt.try_due(tried, a, 0.11, 8.1e-4)                   # neither 10x lower nor 10x sharper
+    assert jt.try_due(tried, a, 0.11, 9.0e-5)                       # 27x sharper than the last try
+    assert not jt.try_due(tried, a, 0.071, 1.6e-5)                  # 5.6x sharper than that one: no
+    assert jt.try_due(tried, a, 0.027, 7.2e-6)                      # 12.5x sharper again
+    assert jt.try_due(tried, a, 0.0039, 2.5e-6)                     # 28x below the first try's estimate
+    assert not jt.try_due(tried, a, 0.0003, 2.5e-6)                 # that retry is spent, the spread unchanged
+    assert jt.try_due(tried, b, 1.0, 1e-3)                          # a second structure
+    assert not jt.try_due(tried, c, 1.0, 1e-3)                      # TRIES structures at most
+    assert len(tried) == jt.TRIES == 2

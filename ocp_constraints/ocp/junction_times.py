@@ -213,15 +213,33 @@ def solve_on_arcs(problem, scheme, arc_set: ArcSet, tol: float, options: dict, w
     return sol, wall, cpu, trial, ArcSet(tuple(arcs), arc_set.scale, slopes), False
 
 
+def try_due(tried: dict, structure: tuple, score: float, spread: float) -> bool:
+    """Whether an arc structure is to be tried at this estimate ``score`` and junction ``spread`` (fractions of the
+    horizon), recording the try in ``tried`` (structure -> (estimate at its first try, None once the estimate's retry
+    is spent; spread at its last try)): a new structure while fewer than :data:`TRIES` were tried; a tried one once
+    where the estimate has fallen by :data:`RETRY_DROP` since its first try, and each time the spread has fallen by
+    :data:`RETRY_SHARPER` since its last."""
+    if structure in tried:
+        first_score, spread_then = tried[structure]
+        if first_score is not None and score <= RETRY_DROP * first_score:
+            tried[structure] = (None, spread)
+        elif spread <= RETRY_SHARPER * spread_then:
+            tried[structure] = (first_score, spread)
+        else:
+            return False
+        return True
+    if len(tried) >= TRIES:
+        return False
+    tried[structure] = (score, spread)
+    return True
+
+
 def align_junctions(problem, scheme, solution, tol: float, options: dict, progress, first, fallback, scale_objective,
                     tried: dict, score: float = np.inf):
     """The first imposition of ``solution``'s arcs (:func:`solve_on_arcs` from their located junctions):
     ``(solution, wall s, CPU s, mesh, arc_set)``, or None where there is no inner junction, a step is not solved, the
     steps do not converge or the arcs are not found to hold (module notes). ``tried``: the arc structures tried before
-    (quantity, value, inner start, inner end of each arc) with the estimate ``score`` each was first tried at (None once
-    tried again for it) and the junctions' spread at its last try, :data:`TRIES` in all; each is tried again once where
-    the estimate has fallen by :data:`RETRY_DROP` since its first try, and each time the spread has fallen by
-    :data:`RETRY_SHARPER` since its last; this one is added. A
+    (quantity, value, inner start, inner end of each arc), which are tried again and when: :func:`try_due`. A
     finer mesh can show an arc the first did not (a rod whose torque sits on its bound for the first 0.5% of the
     horizon: no collocation point of the first mesh falls there)."""
     arcs, scale = find_arcs(solution)
@@ -230,18 +248,8 @@ def align_junctions(problem, scheme, solution, tol: float, options: dict, progre
         return None
     t = solution.transcription.fractions
     spread = max(float(np.diff(t)[min(max(np.searchsorted(t, at) - 1, 0), len(t) - 2)]) for _, _, at in inner)
-    if structure in tried:
-        first_score, spread_then = tried[structure]     # first_score None once the estimate's retry is spent
-        if first_score is not None and score <= RETRY_DROP * first_score:
-            tried[structure] = (None, spread)
-        elif spread <= RETRY_SHARPER * spread_then:
-            tried[structure] = (first_score, spread)
-        else:
-            return None
-    elif len(tried) >= TRIES:
+    if not try_due(tried, structure, score, spread):
         return None
-    else:
-        tried[structure] = (score, spread)
     # Each step's IPOPT capped in CPU (unless the options cap it): an imposed NLP whose arcs fix one another can be
     # singular, and MUMPS then spends minutes per solve to fail (the least-time crane at 1e-4: a step of 52 intervals,
     # 'Infeasible_Problem_Detected' after 166 s of CPU, where the whole refinement takes 12).
