@@ -121,6 +121,11 @@ def _placed(g: np.ndarray, offset: float | None, solution, tol: float) -> bool:
     return offset * rates <= GOAL * tol
 
 
+def _gap_around(grid: np.ndarray, at: float) -> float:
+    """The length of ``grid``'s interval (mesh points or collocation points, fractions) that holds ``at``."""
+    return float(np.diff(grid)[min(max(np.searchsorted(grid, at) - 1, 0), len(grid) - 2)])
+
+
 def _gaps(times: np.ndarray, quantities: list) -> np.ndarray:
     """Each junction's distance to the nearest other junction of its quantity (inf where it has none)."""
     return np.array([min([abs(times[j] - times[i]) for j in range(len(times)) if j != i and quantities[j] == q]
@@ -154,7 +159,7 @@ def solve_on_arcs(problem, scheme, arc_set: ArcSet, tol: float, options: dict, w
     arcs, junctions = list(arc_set.arcs), inner_junctions(list(arc_set.arcs))   # in fractions of the horizon
     times = np.array([at for _, _, at in junctions])
     mesh = scheme.mesh_fractions
-    step = FIRST_STEP * np.array([np.diff(mesh)[min(max(np.searchsorted(mesh, at) - 1, 0), len(mesh) - 2)] for at in times])
+    step = FIRST_STEP * np.array([_gap_around(mesh, at) for at in times])
     # Nor more than half the way to the quantity's next junction: a short free arc between two arcs (module notes).
     step = np.minimum(step, 0.5 * _gaps(times, [arcs[k].quantity for k, _, _ in junctions]))
     before, wall, cpu, slopes, halved, probe, best = None, 0.0, 0.0, arc_set.slopes, 0, False, None
@@ -246,8 +251,7 @@ def align_junctions(problem, scheme, solution, tol: float, options: dict, progre
     structure = tuple((a.quantity, a.value, a.start > 0.0, a.end < 1.0, is_touch(a)) for a in arcs)
     if not (inner := inner_junctions(arcs)):
         return None
-    t = solution.transcription.fractions
-    spread = max(float(np.diff(t)[min(max(np.searchsorted(t, at) - 1, 0), len(t) - 2)]) for _, _, at in inner)
+    spread = max(_gap_around(solution.transcription.fractions, at) for _, _, at in inner)
     if not try_due(tried, structure, score, spread):
         return None
     # Each step's IPOPT capped in CPU (unless the options cap it): an imposed NLP whose arcs fix one another can be
