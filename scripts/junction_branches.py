@@ -29,7 +29,7 @@ sys.path.insert(0, str(Path(__file__).parent))
 import newcomer_problems as N  # noqa: E402
 
 import ocp_constraints as oc  # noqa: E402
-from ocp_constraints.ocp import imposed_arcs, junction_times, mesh_refinement  # noqa: E402
+from ocp_constraints.ocp import free_mesh_points, imposed_arcs, junction_times, mesh_refinement  # noqa: E402
 from ocp_constraints.ocp.mesh_solves import timed_solve  # noqa: E402
 
 
@@ -74,7 +74,7 @@ def branches(starts, ends, which: int = 2) -> list[str]:
         for i, s in enumerate(starts):
             for k, e in enumerate(ends):
                 trial_arcs = [replace(arcs[0], start=float(s), end=float(e))]
-                trial = imposed_arcs.with_junction_points(scheme, [float(s), float(e)])
+                trial = free_mesh_points.with_junction_points(scheme, [float(s), float(e)])
                 sol, _, _ = timed_solve(problem, trial, options, solution, progress, first, fallback, scale_objective,
                                         arcs=trial_arcs)
                 g[i, k] = imposed_arcs.mismatch(sol, trial_arcs, scale)

@@ -397,7 +397,7 @@ def test_two_arcs_of_one_input_a_short_line_apart_are_imposed_and_meet_the_close
 
 
 def test_junctions_closer_than_a_mesh_interval_each_get_a_mesh_point():
-    from ocp_constraints.ocp.imposed_arcs import with_junction_points
+    from ocp_constraints.ocp.free_mesh_points import with_junction_points
 
     scheme = with_junction_points(Radau(10, degree=4), [0.49999, 0.50002])
     assert {0.49999, 0.50002} <= set(scheme.mesh_fractions)

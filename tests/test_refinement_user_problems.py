@@ -71,17 +71,21 @@ def _arm(tmp_path):
     return problem
 
 
-def test_the_urdf_arm_ends_in_the_pose_it_was_asked_and_its_best_start_is_the_references_optimum(tmp_path):
+def test_the_urdf_arm_ends_in_the_pose_it_was_asked_and_its_starts_reach_the_references_optimum_the_best_no_worse(tmp_path):
     """set_boundary at the final end fixed one parameter per quaternion, which leaves the other's sign free: from
-    some starts the arm ended with link 2 mirrored (-105 deg instead of 105 deg; J = 7.16, below the true optimum),
-    and a multi-start kept that. Eight starts (the problem's guess and perturbed ones): the best ends at the pose
-    asked, read back as angles from its quaternions (2 atan2(qz, qw)), and its objective is the independent
-    three-phase reference's (scripts/refinement_newcomer7/ref.py: J = 9.073986104630348, its two resolutions within
-    1.3e-9), to Radau 3 x 20's discretization error."""
+    some starts the arm ended with link 2 mirrored (-105 deg instead of 105 deg; J = 7.16), and a multi-start kept
+    that. Eight starts (the problem's guess and perturbed ones): the best ends at the pose asked, read back as angles
+    from its quaternions (2 atan2(qz, qw)); among the optima they reach is the independent three-phase reference's
+    (scripts/refinement_newcomer7/ref.py: J = 9.073986104630348, its two resolutions within 1.3e-9), to Radau 3 x 20's
+    discretization error, and the best is no worse. Which other optima the perturbed starts reach depends on the
+    machine's floating point: on 2026-12-06 one start took 383 iterations to J = 7.2875, link 2 swung over the top
+    (the same reference started from it: 7.3032), where earlier runs found 9.074 the lowest."""
     best = _arm(tmp_path).solve(oc.Radau(20, degree=3), starts=8)
     angles = [2 * np.arctan2(best.sample(f"{link}.qz")[-1], best.sample(f"{link}.qw")[-1]) for link in ("link1", "link2")]
     assert np.allclose(angles, [np.pi / 4, np.pi / 4 + np.pi / 3], atol=1e-9)
-    assert best.objective == pytest.approx(REFERENCE_OBJECTIVE, rel=1e-4)
+    optima = [o["objective"] for o in best.multistart["optima"]]
+    assert any(o == pytest.approx(REFERENCE_OBJECTIVE, rel=1e-4) for o in optima), optima
+    assert best.objective == min(optima) <= REFERENCE_OBJECTIVE * (1 + 1e-4)
 
 
 @pytest.mark.slow

@@ -5,6 +5,7 @@ import numpy as np
 
 from ..errors import ModelError
 from ..mechanics.rotations import EulerSequence
+from .free_mesh_points import scale_bounds
 
 
 def variable_bounds(tr, x0: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -26,6 +27,8 @@ def variable_bounds(tr, x0: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
             raise ModelError(f"bound on '{name}': only coordinates, speeds and inputs take bounds; use subject_to for rates")
     if lay.free_time:
         lo[5][:], hi[5][:] = pr.t_final_bounds
+    if lay.n_phases:
+        lo[6][:], hi[6][:] = scale_bounds(tr)
     _keep_away_from_euler_singularities(tr, lo[0], hi[0], names_x, x0[: lay.nx])
     return np.concatenate(lo), np.concatenate(hi)
 

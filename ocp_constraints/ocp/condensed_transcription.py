@@ -64,7 +64,7 @@ class CondensedLayout(Layout):
 
     def sizes(self) -> list[int]:
         P, S = self.n_points, len(self.slack_points)
-        return [self.nx * P, 0, self.nc * S, self.n_in * P, self.nh * S, int(self.free_time)]
+        return [self.nx * P, 0, self.nc * S, self.n_in * P, self.nh * S, int(self.free_time), 0]
 
     def split(self, w):
         """Numeric blocks at every point: ``X, A`` (zeros: not variables), ``s`` (zero off the slack
@@ -112,7 +112,8 @@ class CondensedTranscription(Transcription):
             return lambda i: start[b] + where[i] * size + np.arange(size) if i in where else -np.ones(size, int)
 
         return {"x": block(0, lay.nx), "a": lambda i: -np.ones(lay.nu, int), "lam": slack(2, lay.nc),
-                "w": block(3, lay.n_in), "gamma": slack(4, lay.nh), "T": [start[5]] if lay.free_time else []}
+                "w": block(3, lay.n_in), "gamma": slack(4, lay.nh), "T": [start[5]] if lay.free_time else [],
+                "phases": start[6]}
 
     @property
     def layout(self) -> CondensedLayout:
@@ -125,7 +126,7 @@ class CondensedTranscription(Transcription):
         self.from_speeds = False
         self._layout = base if isinstance(base, CondensedLayout) else CondensedLayout(
             base.n_points, base.nx, base.nu, base.nc, base.nh, base.n_in, base.free_time, 0,
-            self._slack_points(base.n_points))
+            slack_points=self._slack_points(base.n_points))
 
     # -- elements ---------------------------------------------------------------------------------------
     def _point_functions(self) -> dict:
@@ -238,4 +239,7 @@ class CondensedTranscription(Transcription):
 
 def transcribe_condensed(problem, scheme, slacks: str = "mesh") -> CondensedTranscription:
     """The condensed maximal NLP of ``problem`` with ``scheme`` (see the module docstring)."""
+    if scheme.free_points:
+        raise ModelError("free_points: the condensed NLP has no phases of unknown length; use coordinates='maximal' or "
+                         "'joint' (or 'auto')")
     return CondensedTranscription(problem, scheme, slacks)

@@ -48,7 +48,6 @@ import numpy as np
 
 from .arc_handoffs import handed_off
 from .path_regularity import regular_pieces
-from .schemes import Radau
 from .switch_detection import activity, bounded_quantities, detect_switches, penalized_inputs
 from .transcription_elements import path_scale, rate_row, single_speed, state_row
 
@@ -163,9 +162,18 @@ def pinned_points(tr, arcs: list[Arc]) -> tuple[list[np.ndarray], list[np.ndarra
     # A state's arc from t0 or to the end leaves that end's point to the boundary values and the bound's inequality.
     fixed = [np.flatnonzero((t > a.start - EPS if a.state and a.start > 0.0 else t > max(a.start, 0.0) + EPS)
                             & (t <= a.end + EPS if not a.state or a.end < 1.0 else t < 1.0 - EPS)) for a in arcs]
-    freed = [_free_interval(tr, at, side) for _, side, at in inner_junctions(arcs)]
+    freed = [np.zeros(0, int) if _jump(arcs, k, at) else _free_interval(tr, at, side)
+             for k, side, at in inner_junctions(arcs)]
     freed = [p[np.abs(t[p] - at) > EPS] if arcs[k].state else p for (k, _, at), p in zip(inner_junctions(arcs), freed)]
     return fixed, freed
+
+
+def _jump(arcs: list[Arc], k: int, at: float) -> bool:
+    """Whether arc ``k``'s junction at ``at`` is a jump: another arc of its quantity meets it there (a bang-bang input,
+    no free interval between its bounds), so both sides stay pinned; its time is then a free mesh point's
+    (:mod:`.free_mesh_points`), not a root of a continuity mismatch."""
+    return any(j != k and b.quantity == arcs[k].quantity and min(abs(b.start - at), abs(b.end - at)) <= EPS
+               for j, b in enumerate(arcs))
 
 
 def pinned(tr, arcs: list[Arc]) -> tuple[list[np.ndarray], list[np.ndarray]]:
@@ -373,27 +381,3 @@ def _nearest(located: list[float], a: float, b: float) -> float:
     """The located junction between points ``a`` and ``b`` (or nearest to them), else their midpoint."""
     inside = [x for x in located if a - (b - a) <= x <= b + (b - a)]
     return min(inside, key=lambda x: abs(x - 0.5 * (a + b))) if inside else 0.5 * (a + b)
-
-
-def with_junction_points(scheme: Radau, times: list[float]) -> Radau:
-    """``scheme`` with a mesh point at each junction (fractions of the horizon): the nearest mesh point moved there where it lies within a
-    quarter of its shorter interval (not the ends, nor a point an earlier junction was put on: two junctions closer
-    than a mesh interval, a short free arc between two arcs, each get their own point), else the interval holding it
-    split there (both pieces at its degree)."""
-    mesh = list(scheme.mesh_fractions)
-    degrees = list(np.asarray(scheme.degrees if scheme.degrees is not None else [scheme.degree] * scheme.intervals))
-    placed: set = set()
-    for at in sorted(times):
-        k = int(np.argmin(np.abs(np.asarray(mesh) - at)))
-        if mesh[k] == at:
-            placed.add(at)
-            continue
-        shorter = min(mesh[k] - mesh[k - 1] if k > 0 else np.inf, mesh[k + 1] - mesh[k] if k + 1 < len(mesh) else np.inf)
-        if 0 < k < len(mesh) - 1 and abs(mesh[k] - at) <= 0.25 * shorter and mesh[k] not in placed:
-            mesh[k] = at
-        else:
-            j = int(np.searchsorted(mesh, at)) - 1
-            mesh.insert(j + 1, at)
-            degrees.insert(j, degrees[j])
-        placed.add(at)
-    return Radau(mesh=tuple(float(m) for m in mesh), degrees=tuple(int(d) for d in degrees))

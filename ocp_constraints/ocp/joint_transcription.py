@@ -27,6 +27,7 @@ import numpy as np
 from ..errors import ModelError
 from ..mechanics.generalized import JointCoordinates
 from .bounds import _keep_away_from_euler_singularities
+from .free_mesh_points import scale_bounds
 from .guess import consistent_guess
 from .joint_guess import JointGuess
 from .solution import OCPSolution
@@ -116,6 +117,8 @@ class JointTranscription(Transcription):
                                  f"for rates")
         if lay.free_time:
             lo[5][:], hi[5][:] = pr.t_final_bounds
+        if lay.n_phases:
+            lo[6][:], hi[6][:] = scale_bounds(self)
         # A body on no mapped joint keeps its Euler angles: the same bands off their singularities.
         free = [b for b in self.reduced.bodies if b.name not in self.reduced.maps]
         names = self.reduced.coordinate_names + self.reduced.speed_names
@@ -236,6 +239,6 @@ class JointTranscription(Transcription):
         traj = Trajectory(full, sol.success, sol.status)
         traj.extend(sol.t, q.T, u.T, udot.T, lam.T, sol.inputs.T, np.zeros((P, full.nc)), np.zeros(P), np.zeros(P),
                     np.zeros(P))     # all points in one block
-        return OCPSolution(self, sol.decision_vector, sol.t, np.vstack([q, u]), udot, lam, sol.inputs, sol.t_final,
+        return OCPSolution(sol.transcription, sol.decision_vector, sol.t, np.vstack([q, u]), udot, lam, sol.inputs, sol.t_final,
                            sol.objective, sol.stats, sol.wall_time, traj)
 

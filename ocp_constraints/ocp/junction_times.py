@@ -20,10 +20,11 @@ from dataclasses import dataclass, replace
 
 import numpy as np
 
-from ..errors import OCPSolveError
+from ..errors import ModelError, OCPSolveError
 from .arc_handoffs import tied
-from .imposed_arcs import (find_arcs, inner_junctions, is_touch, mismatch, on_rows, pinned, pinned_points, values_of,
-                           with_junction_points)
+from .imposed_arcs import find_arcs, inner_junctions, is_touch, mismatch, on_rows, pinned, pinned_points, values_of
+from .free_mesh_points import with_junction_points
+from .jump_arcs import find_jumps, solve_jumps
 from .mesh_solves import timed_solve
 
 STEPS = 12          # secant steps at most (the sixth newcomer's tracking pendulum, 5 junctions from its first mesh: 10)
@@ -93,6 +94,7 @@ class ArcSet:
     arcs: tuple
     scale: dict
     slopes: tuple | None = None     # each junction's mismatch per fraction of the horizon, from the secant that placed it
+    jumps: bool = False             # a bang-bang input's arcs: each jump a free mesh point, no secant (.jump_arcs)
 
 
 def state_offset(g: np.ndarray, slopes, junctions, arcs, solution) -> float | None:
@@ -156,6 +158,10 @@ def solve_on_arcs(problem, scheme, arc_set: ArcSet, tol: float, options: dict, w
     newcomer's pendulum under a torque bound at 1e-4: "met", its hinge force 1.2x the estimate, 6.5e-6 s off a
     junction). Returns ``(solution, wall s, CPU s, mesh, arc_set, converged)``; a step IPOPT does not solve raises
     its :class:`OCPSolveError`."""
+    if arc_set.jumps:
+        sol, wall, cpu, mesh, arcs = solve_jumps(problem, scheme, arc_set.arcs, options, warm, progress, first, fallback,
+                                                 scale_objective)
+        return sol, wall, cpu, mesh, replace(arc_set, arcs=arcs), True
     arcs, junctions = list(arc_set.arcs), inner_junctions(list(arc_set.arcs))   # in fractions of the horizon
     times = np.array([at for _, _, at in junctions])
     mesh = scheme.mesh_fractions
@@ -248,6 +254,9 @@ def align_junctions(problem, scheme, solution, tol: float, options: dict, progre
     finer mesh can show an arc the first did not (a rod whose torque sits on its bound for the first 0.5% of the
     horizon: no collocation point of the first mesh falls there)."""
     arcs, scale = find_arcs(solution)
+    jumps = not arcs and solution.transcription.layout.n_phases == 0     # else a bang-bang input's (.jump_arcs)
+    if jumps:
+        arcs, scale = find_jumps(solution)
     structure = tuple((a.quantity, a.value, a.start > 0.0, a.end < 1.0, is_touch(a)) for a in arcs)
     if not (inner := inner_junctions(arcs)):
         return None
@@ -260,8 +269,9 @@ def align_junctions(problem, scheme, solution, tol: float, options: dict, progre
     # And a step IPOPT does not solve is not solved again with the fallback options: it ends the try.
     options = {"ipopt.max_cpu_time": max(MIN_CAP_S, CAP_FACTOR * float(sum(solution.wall_time.values()))), **options}
     try:
-        sol, wall, cpu, mesh, arc_set, converged = solve_on_arcs(problem, scheme, ArcSet(tuple(arcs), scale), tol, options,
-                                                                 solution, progress, first, None, scale_objective)
-    except OCPSolveError:
+        sol, wall, cpu, mesh, arc_set, converged = solve_on_arcs(problem, scheme, ArcSet(tuple(arcs), scale, jumps=jumps),
+                                                                 tol, options, solution, progress, first, None,
+                                                                 scale_objective)
+    except (OCPSolveError, ModelError):     # ModelError: a model that reads the time takes no free mesh point
         return None
     return (sol, wall, cpu, mesh, arc_set) if converged and holds(sol, arc_set.arcs, scale, tol) else None

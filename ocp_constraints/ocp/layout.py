@@ -3,7 +3,8 @@
 Blocks, in order (see :mod:`ocp_constraints.ocp.transcription`): states ``x_i`` at every
 collocation point, accelerations (at every point, or at ``t_0`` only where the scheme gives
 them), multipliers ``lambda_i``, inputs ``w_i``, Posa slacks ``gamma_i`` (not at ``t_0``) and
-the free final time.
+the free final time; then, where the scheme has free mesh points, each phase's time scale
+(:mod:`~ocp_constraints.ocp.free_mesh_points`), which :meth:`Layout.split` leaves out.
 """
 from __future__ import annotations
 
@@ -24,10 +25,12 @@ class Layout:
     n_in: int
     free_time: bool
     n_acc: int  # points with acceleration variables: all, or t0 only where the scheme gives them
+    n_phases: int = 0   # phases of unknown length (free mesh points + 1), or 0
 
     def sizes(self) -> list[int]:
         P = self.n_points
-        return [self.nx * P, self.nu * self.n_acc, self.nc * P, self.n_in * P, self.nh * (P - 1), int(self.free_time)]
+        return [self.nx * P, self.nu * self.n_acc, self.nc * P, self.n_in * P, self.nh * (P - 1), int(self.free_time),
+                self.n_phases]
 
     def split(self, w):
         out, start = [], 0

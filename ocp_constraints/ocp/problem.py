@@ -373,7 +373,7 @@ class OptimalControlProblem:
             from .condensed_transcription import transcribe_condensed as transcribe
 
         key = (method.label, method.intervals, None if method.mesh is None else tuple(method.mesh),
-               getattr(method, "degrees", None), self.structure_key())
+               (getattr(method, "degrees", None), method.free_points), self.structure_key())
         cache = self.__dict__.setdefault("_transcriptions", {}) if cache else {}
         if key not in cache:
             for old in [k for k in cache if k[:4] == key[:4]]:

@@ -75,6 +75,9 @@ class Scheme:
     # degree 6 or the reverse, so it is refused by Python instead of misread.
     _: KW_ONLY
     mesh: tuple[float, ...] | None = None
+    # Inner mesh points (indices 1 .. intervals - 1) whose times are NLP variables: the horizon is cut there into
+    # phases of unknown length (Radau only; :mod:`.free_mesh_points`).
+    free_points: tuple[int, ...] = ()
     tau: np.ndarray = field(init=False, repr=False, compare=False)
 
     def __post_init__(self) -> None:
@@ -85,6 +88,12 @@ class Scheme:
             object.__setattr__(self, "intervals", len(m) - 1)
         elif not (isinstance(self.intervals, int) and self.intervals >= 1):
             raise ModelError(f"intervals must be a positive whole number, got {self.intervals!r}")
+        points = tuple(self.free_points)
+        if points and (type(self).__name__ != "Radau" or not all(isinstance(i, (int, np.integer)) for i in points)
+                       or list(points) != sorted(set(points)) or points[0] < 1 or points[-1] > self.intervals - 1):
+            raise ModelError(f"free_points must be increasing indices of inner mesh points (1 to {self.intervals - 1}) of "
+                             f"a Radau mesh, got {self.free_points!r} on {type(self).__name__}")
+        object.__setattr__(self, "free_points", tuple(int(i) for i in points))
 
     @property
     def mesh_fractions(self) -> np.ndarray:

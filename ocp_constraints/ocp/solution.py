@@ -16,6 +16,7 @@ import numpy as np
 from ..dynamics.result import Result
 from ..dynamics.trajectory import Trajectory
 from ..errors import JumpWindowWarning, ModelError
+from .free_mesh_points import solved_view
 from .interpolation import interval_of, jumps_at_starts, starts_shared
 
 
@@ -45,6 +46,7 @@ class OCPSolution(Result):
 
     @classmethod
     def from_vector(cls, tr, w: np.ndarray, stats: dict, objective: float, wall_time: dict) -> "OCPSolution":
+        tr = solved_view(tr, w)       # free mesh points: the mesh at their solved times
         lay = tr.layout
         X, A, L, W, _, T = (np.asarray(a, float) for a in lay.split(w))
         t_final = float(T[0]) if lay.free_time else float(tr.problem.t_final)

@@ -209,9 +209,11 @@ def _on_arcs(found: list[Switch], solution) -> list[Switch]:
     ends: dict = {}
     for a in arcs:      # in fractions of the horizon
         ends.setdefault(a.quantity, []).extend(x for x in (a.start, a.end) if 0.0 < x < 1.0)
+    # A bang-bang input's arcs meet at its jumps, free mesh points (.jump_arcs): its jumps are there too.
+    jumping = {a.quantity for a in arcs for b in arcs if a.quantity == b.quantity and abs(a.end - b.start) <= 1e-9}
     out = []
     for w in found:
-        if w.kind == "junction" and ends.get(w.quantity):
+        if (w.kind == "junction" or w.quantity in jumping) and ends.get(w.quantity):
             at = min(ends[w.quantity], key=lambda x: abs(x - w.fraction))
             k = int(np.clip(np.searchsorted(mesh, at * (1 + 1e-12), side="right") - 1, 0, len(mesh) - 2))
             w = replace(w, fraction=at, interval=k, inside=False, effect=0.0, imposed=True)

@@ -78,17 +78,9 @@ class Transcription(ElementKinds):
         # after t0 are expressions, not variables: a smaller KKT system, the same NLP.
         self.from_speeds = scheme.accelerations_from_speeds is not None
         n_acc = 1 if self.from_speeds else P
-        self.layout = Layout(P, nx, e.nu, e.nc, e.position_rows.numel(), n_in, problem.t_final_bounds is not None, n_acc)
-        mesh = scheme.mesh_fractions
-        # Normalized time of every point, and its quadrature weight (times the horizon).
-        frac = np.zeros(P)
-        quad = np.zeros(P)
-        for k, local in enumerate(self.local):
-            hk = mesh[k + 1] - mesh[k]
-            points = self.interval_points(k)
-            frac[points] = mesh[k] + local.tau * hk
-            quad[points] += local.weights * hk
-        self.fractions, self.quadrature = frac, quad
+        self.layout = Layout(P, nx, e.nu, e.nc, e.position_rows.numel(), n_in, problem.t_final_bounds is not None, n_acc,
+                             len(scheme.free_points) + 1 if scheme.free_points else 0)
+        self.fractions, self.quadrature = self.point_times(scheme)
 
         owner = getattr(self, "user_problem", problem)
         self.machine_code = machine_code(owner, getattr(owner, "compiled", "auto"))
@@ -104,6 +96,17 @@ class Transcription(ElementKinds):
         self._solver = None
         self._solver_options: dict | None = None
         self.build_time = time.perf_counter() - started
+
+    def point_times(self, scheme: Scheme) -> tuple[np.ndarray, np.ndarray]:
+        """Normalized time of every point on ``scheme``'s mesh, and its quadrature weight (times the horizon)."""
+        mesh = scheme.mesh_fractions
+        frac, quad = np.zeros(self.layout.n_points), np.zeros(self.layout.n_points)
+        for k, local in enumerate(self.local):
+            hk = mesh[k + 1] - mesh[k]
+            points = self.interval_points(k)
+            frac[points] = mesh[k] + local.tau * hk
+            quad[points] += local.weights * hk
+        return frac, quad
 
     def interval_points(self, k: int) -> range:
         """The points of interval ``k``, both ends included (the last shared with the next)."""
@@ -190,7 +193,8 @@ class Transcription(ElementKinds):
             self._project_positions(X, W, t)
             A = np.gradient(X[e.nq :], t, axis=1) if lay.n_points > 1 else np.zeros((e.nu, 1))
         parts = [X.ravel(order="F"), A[:, : lay.n_acc].ravel(order="F"), L.ravel(order="F"), W.ravel(order="F"),
-                 np.zeros(lay.nh * (lay.n_points - 1)), np.array([t_final] if lay.free_time else [])]
+                 np.zeros(lay.nh * (lay.n_points - 1)), np.array([t_final] if lay.free_time else []),
+                 np.full(lay.n_phases, t_final)]      # each phase at its nominal length
         return np.concatenate(parts)
 
     def _project_positions(self, X: np.ndarray, W: np.ndarray, t: np.ndarray) -> None:

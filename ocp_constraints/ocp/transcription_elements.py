@@ -20,6 +20,7 @@ import casadi as ca
 import numpy as np
 
 from ..errors import ModelError
+from .free_mesh_points import check_free_points, link_row, phase_lengths, phase_of_intervals, phase_of_points
 from .nlp_assembly import CACHED_KINDS, instances
 
 SX = ca.SX
@@ -86,7 +87,7 @@ class ElementKinds:
             return np.where(i > 0, start[4] + (i - 1) * lay.nh + np.arange(lay.nh), -1)
 
         return {"x": block(0, lay.nx), "a": block(1, lay.nu), "lam": block(2, lay.nc), "w": block(3, lay.n_in),
-                "gamma": gamma, "T": [start[5]] if lay.free_time else []}
+                "gamma": gamma, "T": [start[5]] if lay.free_time else [], "phases": start[6]}
 
     def _elements(self) -> list:
         """The NLP's pieces: dynamics at the points, defects on the intervals, t0 and end rows."""
@@ -101,12 +102,23 @@ class ElementKinds:
             point = self._point_functions()
             fingerprint = _fingerprint(point)
         self.point_pieces = (point, fingerprint)
-        # The horizon: a variable of every element (free final time) or a constant.
-        s = SimpleNamespace(point=point, fingerprint=fingerprint, index=self._indices(), T=T,
+        check_free_points(self, point)
+        # The horizon: a variable of every element (free final time) or a constant. The points and intervals read
+        # it as their phase's time scale where the mesh has free points (.free_mesh_points): a variable each.
+        index, phased, varied = self._indices(), bool(lay.n_phases), lay.free_time or bool(lay.n_phases)
+        s = SimpleNamespace(point=point, fingerprint=fingerprint, index=index, T=T, varied=varied,
                             x=SX.sym("x", lay.nx), a=SX.sym("a", e.nu), lam=SX.sym("lam", e.nc),
                             w=SX.sym("w", lay.n_in), none=SX.sym("none", 0),
                             T_z=[T] if lay.free_time else [], T_c=[] if lay.free_time else [T],
-                            T_value=[] if lay.free_time else [self.problem.t_final])
+                            T_value=[] if lay.free_time else [self.problem.t_final],
+                            P_z=[T] if varied else [], P_c=[] if varied else [T],
+                            P_value=[] if varied else [self.problem.t_final])
+        if phased:
+            of_points = index["phases"] + phase_of_points(self)
+            of_intervals = index["phases"] + phase_of_intervals(self.scheme)
+            s.P_points, s.P_intervals = (lambda i: of_points[np.asarray(i)][:, None]), (lambda k: of_intervals[np.asarray(k)][:, None])
+        else:
+            s.P_points = s.P_intervals = lambda _: index["T"]
         return [*self._point_elements(s), *self._interval_elements(s), *self._end_elements(s)]
 
     def _point_rows(self, s, a) -> tuple:
@@ -130,15 +142,16 @@ class ElementKinds:
 
         def build_point():
             frac, quad, rows, cost = self._point_rows(s, a)
-            return ca.vertcat(x, a, lam, w, *s.T_z), ca.vertcat(frac, quad, *s.T_c), rows, cost
+            return ca.vertcat(x, a, lam, w, *s.P_z), ca.vertcat(frac, quad, *s.P_c), rows, cost
 
         at = np.arange(1 if self.from_speeds else lay.n_points)[:, None]
         # Where each point's position rows are: element, instance, first row in it (the dynamics and
         # velocity rows come first; read by Transcription._fixed_length_rows).
         self.position_rows_at = {int(k): ("point", int(k), e.nu + e.nc) for k in at[:, 0]}
-        out = [instances("point", self._kind(s, ("point",), build_point),
-                         _columns(len(at), index["x"](at), index["a"](at), index["lam"](at), index["w"](at), index["T"]),
-                         _columns(len(at), self.fractions[at], self.quadrature[at], s.T_value), lo, hi)]
+        out = [instances("point", self._kind(s, ("point", s.varied), build_point),
+                         _columns(len(at), index["x"](at), index["a"](at), index["lam"](at), index["w"](at),
+                                  s.P_points(at[:, 0])),
+                         _columns(len(at), self.fractions[at], self.quadrature[at], s.P_value), lo, hi)]
         if not self.from_speeds:
             return out
         # After t0: a = u' from the interval's speeds, (sum_r C[r, j] u_r) / h; one element
@@ -151,7 +164,7 @@ class ElementKinds:
                 us = SX.sym("u_interval", e.nu, p)
                 column, h = SX.sym("C_j", p), SX.sym("h")
                 frac, quad, rows, cost = self._point_rows(s, us @ column / (h * s.T))
-                return (ca.vertcat(x, lam, w, ca.vec(us), *s.T_z), ca.vertcat(frac, quad, column, h, *s.T_c), rows, cost)
+                return (ca.vertcat(x, lam, w, ca.vec(us), *s.P_z), ca.vertcat(frac, quad, column, h, *s.P_c), rows, cost)
 
             # Instances: interval k's collocation points j = 1 .. p-1 (point i), each reading all p speeds of k.
             ks = np.repeat(intervals, p - 1)
@@ -162,10 +175,11 @@ class ElementKinds:
             self.position_rows_at.update({int(point): (name, r, e.nu + e.nc) for r, point in enumerate(i[:, 0])})
             out.append(instances(
                 name,
-                self._kind(s, ("collocation_point", label), build_collocation),
-                _columns(len(i), index["x"](i), index["lam"](i), index["w"](i), speeds.reshape(len(i), -1), index["T"]),
+                self._kind(s, ("collocation_point", label, s.varied), build_collocation),
+                _columns(len(i), index["x"](i), index["lam"](i), index["w"](i), speeds.reshape(len(i), -1),
+                         s.P_points(i[:, 0])),
                 _columns(len(i), self.fractions[i], self.quadrature[i], C[:, js].T, (mesh[ks + 1] - mesh[ks])[:, None],
-                         s.T_value),
+                         s.P_value),
                 lo, hi))
         return out
 
@@ -187,7 +201,7 @@ class ElementKinds:
                 if self.from_speeds:
                     # The speed rows hold by construction of a; only the coordinate rows remain.
                     defects, accelerations = [d[: e.nq] for d in defects], []
-                return (ca.vertcat(*xs, *accelerations, *gammas, *s.T_z), ca.vertcat(fractions, h, *s.T_c),
+                return (ca.vertcat(*xs, *accelerations, *gammas, *s.P_z), ca.vertcat(fractions, h, *s.P_c),
                         ca.vertcat(*defects), 0)
 
             ks = np.asarray(intervals)
@@ -195,11 +209,11 @@ class ElementKinds:
             at = points[:, :, None]
             variables = _columns(len(ks), index["x"](at).reshape(len(ks), -1),
                                  *([] if self.from_speeds else [index["a"](at).reshape(len(ks), -1)]),
-                                 index["gamma"](at).reshape(len(ks), -1), index["T"])
+                                 index["gamma"](at).reshape(len(ks), -1), s.P_intervals(ks))
             out.append(instances("interval" if len(groups) == 1 else f"interval_{label}",
-                                 self._kind(s, ("interval", label, self.from_speeds), build),
+                                 self._kind(s, ("interval", label, self.from_speeds, s.varied), build),
                                  variables,
-                                 _columns(len(ks), self.fractions[points], (mesh[ks + 1] - mesh[ks])[:, None], s.T_value)))
+                                 _columns(len(ks), self.fractions[points], (mesh[ks + 1] - mesh[ks])[:, None], s.P_value)))
         return out
 
     def _end_elements(self, s) -> list:
@@ -241,6 +255,11 @@ class ElementKinds:
             out.append(instances("terminal", self._kind(s, ("terminal",), lambda: (
                 ca.vertcat(x, w, *s.T_z), ca.vertcat(*s.T_c), SX(0, 1), s.point["terminal"](x, w, s.T))),
                 [np.concatenate([index["x"](last), index["w"](last), index["T"]])], [s.T_value]))
+        if lay.n_phases:
+            n = lay.n_phases
+            out.append(instances("phases", self._kind(s, ("phases", n), lambda: link_row(s, n, lay.free_time)),
+                                 [np.concatenate([index["phases"] + np.arange(n), index["T"]])],
+                                 [np.concatenate([phase_lengths(scheme), s.T_value])]))
         if lay.free_time and pr.time_weight:
             out.append(instances("final_time", self._kind(s, ("final_time", float(pr.time_weight)),
                                                           lambda: (s.T, none, SX(0, 1), pr.time_weight * s.T)),
