@@ -48,6 +48,8 @@
 6. where an input with an effort term (or a path constraint moving with such inputs) rides its bound and the estimate
    is resolved but not met: its arcs imposed and their junctions made mesh points at the roots of its continuity
    mismatch (:mod:`.junction_times`; each arc structure tried once, and again where the estimate has fallen 10x);
+   where there is none but an input that no effort term holds is bang-bang, its arcs imposed and each jump a mesh
+   point whose time is an NLP variable (:mod:`.jump_arcs`, :mod:`.free_mesh_points`);
 7. stop ("met" not claimed) when more points no longer pay: a second stall, one with no progress, or a run of small
    steps that never lowered the estimate (:mod:`.mesh_progress`); a refinement that ends "not met" returns the
    solution with the lowest estimate it saw (:func:`.mesh_progress.lowest_estimate`), not always its last.
