@@ -35,7 +35,7 @@ def _number(pattern: str, text: str) -> float:
 
 CHECKED = {"whirling_by_hand.py", "swing_up.py", "cart_pole_by_hand.py", "export_to_c.py",   # the tests below
            "wheel_on_slope.py", "spherical_pendulum.py", "bryson_denham.py", "terminal_target.py",
-           "torque_limited_rod.py",
+           "torque_limited_rod.py", "least_time_rod.py",
            "robot_arm_urdf.py"}                                   # tests/test_urdf.py (against Pinocchio)
 UNCHECKED = sorted(p.name for p in EXAMPLES.glob("*.py") if p.name not in CHECKED)
 
@@ -383,3 +383,26 @@ def test_torque_limited_rod_meets_its_tolerance_against_the_closed_form():
         k = int(round(float(t) / T * (len(tt) - 1)))
         assert abs(float(torque) - tau[k]) <= estimate * tau_max + 1e-6, (t, torque, tau[k])
         assert abs(float(hinge) - force[k]) <= estimate * force.max() + 1e-6, (t, hinge, force[k])
+
+
+# -- a bang-bang input: the rod in least time (examples/least_time_rod.py) --------------------------------------------
+def test_least_time_rod_places_its_switch_and_its_hinge_force_on_the_closed_form():
+    """Least time rest to rest, torque in [-0.5, 0.9] N m, no gravity: Pontryagin's torque is 0.9 N m up to t1, -0.5 N m
+    after, with the peak speed a1 t1 = a2 (T - t1) and THETA = a1 t1 T / 2 (a_i = tau_i / J_A, J_A = m L^2 / 3). The
+    hinge holds the centre of mass on its circle of radius L/2: |F| = m L/2 sqrt(psi''^2 + psi'^4). The switch is the
+    imposed arcs' free mesh point: t1 and T to 1e-9 s, the hinge force within the tolerance (1e-6 of the largest)."""
+    out = _run("least_time_rod.py")
+    m, L, theta, a1, a2 = 0.8, 0.6, 1.2, 0.9 / (0.8 * 0.6**2 / 3), 0.5 / (0.8 * 0.6**2 / 3)
+    t1 = math.sqrt(2 * theta / (a1 * (1 + a1 / a2)))
+    T = t1 * (1 + a1 / a2)
+    assert "estimated error at most 1e-06" in out
+    assert abs(_number(r"final time: ([\d.]+) s", out) - T) < 1e-9
+    assert abs(_number(r"motor at \+0\.9 N m from 0\.0+ s to ([\d.]+) s", out) - t1) < 1e-9
+    rows = re.findall(r"t = ([\d.]+) s: hinge force ([\d.]+) N", out)
+    assert len(rows) == 5
+    t = np.array([float(a) for a, _ in rows])
+    w = np.where(t <= t1, a1 * t, a1 * t1 - a2 * (t - t1))
+    force = m * L / 2 * np.sqrt(np.where(t < t1, a1, -a2) ** 2 + w**4)
+    largest = m * L / 2 * math.sqrt(a1**2 + (a1 * t1) ** 4)
+    assert np.abs(np.array([float(f) for _, f in rows]) - force).max() <= 1e-6 * largest
+

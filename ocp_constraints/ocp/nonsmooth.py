@@ -70,8 +70,9 @@ def flag_nonsmooth(sol, tol: float, record: dict, smoothness: tuple, windows=())
         record["jump_windows"] = [[float(lo), float(hi)] for lo, hi in merged]
         record["message"] += (f"{JUMPS}{len(merged)} window(s) at fractions "
                               + ", ".join(f"{lo:.5g}-{hi:.5g}" for lo, hi in merged[:4])
-                              + " of the horizon: located from the bounds with a mesh point inside, their estimate "
-                              "leaves these windows out (their error there is the jump's size), the states' does not")
+                              + " of the horizon: located from the bounds with a mesh point inside (the jump itself, "
+                              "where the input's arcs are imposed: input_arcs), their estimate leaves these windows out "
+                              "(their error there is the jump's size), the states' does not")
     bad = np.flatnonzero(untrusted)
     if not len(bad):
         return
