@@ -240,7 +240,7 @@ class _FineReference:
 SWITCHING = {
     "minimum-time swing-up": (lambda coordinates: minimum_time_swing_up(coordinates),
                               lambda make: MinimumTimeReference(make().solve(Radau(160, degree=3))),
-                              "one-switch bang-bang by shooting (DOP853 rtol 1e-13), hand hinge loads", (1e-3,)),
+                              "one-switch bang-bang by shooting (DOP853 rtol 1e-13), hand hinge loads", (1e-3, 1e-6)),
     # Mesh points at the friction cone's junctions: a uniform Radau 3 N = 800 was still 1e-4 off in the multipliers.
     "rolling_disk drive": (lambda coordinates: _task("rolling_disk", "drive", coordinates),
                            lambda make: _FineReference(junction_mesh_solution(make, make().solve(tolerance=1e-4))),
