@@ -95,3 +95,43 @@ def stop_on_signals(monitor: IterationMonitor):
     finally:
         for sig, handler in previous.items():
             signal.signal(sig, handler)
+
+
+class _Without:
+    """A text stream that passes every line to ``stream`` but those holding ``text``."""
+
+    def __init__(self, stream, text: str):
+        self.stream, self.text, self.pending = stream, text, ""
+
+    def __getattr__(self, name):        # isatty, fileno, encoding, ...: the stream's own
+        return getattr(self.stream, name)
+
+    def write(self, s: str) -> int:
+        *lines, self.pending = (self.pending + s).split("\n")
+        for line in lines:
+            if self.text not in line:
+                self.stream.write(line + "\n")
+        return len(s)
+
+    def flush(self) -> None:
+        if self.pending and self.text not in self.pending:
+            self.stream.write(self.pending)
+            self.pending = ""
+        self.stream.flush()
+
+
+@contextmanager
+def without_pin_warning(pinned: bool):
+    """CasADi's "NLP is overconstrained" warning left out of stderr where arcs are imposed (``pinned``): it counts each
+    value held at its bound (lower bound = upper bound) as an equality, and an imposed arc holds an input at every point
+    of the arc (:mod:`.imposed_arcs`), which IPOPT takes as fixed variables and solves; a solve that fails says so."""
+    if not pinned:
+        yield
+        return
+    real = sys.stderr
+    sys.stderr = _Without(real, "NLP is overconstrained")
+    try:
+        yield
+    finally:
+        sys.stderr.flush()
+        sys.stderr = real

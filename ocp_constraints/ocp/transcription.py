@@ -40,7 +40,7 @@ from .imposed_arcs import pin_arcs
 from .interpolation import interpolation_matrix
 from .layout import Layout
 from .objective_scaling import OPTION as OBJECTIVE_SCALING, objective_scale, small_objective_scale
-from .progress import IterationMonitor, stop_on_signals
+from .progress import IterationMonitor, stop_on_signals, without_pin_warning
 from .solution import OCPSolution
 from .solver_threads import ipopt_solver
 from ..errors import ModelError, OCPSolveError
@@ -271,7 +271,7 @@ class Transcription(ElementKinds):
             pin_arcs(self, self.arcs, lbx, ubx, lbg, ubg)
         self._monitor.reset(progress, lbg, ubg)
         started = time.perf_counter()
-        with stop_on_signals(self._monitor):
+        with stop_on_signals(self._monitor), without_pin_warning(bool(self.arcs)):
             res = self._solver(x0=x0, lbx=lbx, ubx=ubx, lbg=lbg, ubg=ubg)
         solve_time = time.perf_counter() - started
         stats = dict(self._solver.stats())
