@@ -1,6 +1,7 @@
 """Bang-bang inputs refined to a tolerance, against their closed forms or an independent reference (issue 19).
 
-    python scripts/bang_bang_jumps.py [--tolerances 1e-3 1e-4 1e-5 1e-6 1e-7 1e-8] [--out results/bench/bang_bang_jumps.md]
+    python scripts/bang_bang_jumps.py [--tolerances 1e-3 1e-4 1e-5 1e-6 1e-7 1e-8] [--cases NAME ...]
+        [--out results/bench/bang_bang_jumps.md]
     PYTHONPATH=<a checkout of an older commit> python scripts/bang_bang_jumps.py ...     # the same rows before a change
 
 Three problems whose inputs no effort term holds, each from the default first mesh, ``problem.solve(tolerance=TOL)``:
@@ -10,7 +11,10 @@ Three problems whose inputs no effort term holds, each from the default first me
 - *least-fuel slider*: 1 m in 2 s, least int (up + um), each in [0, 4] N: bang-off-bang, switches at 1 -+ sqrt(3)/2 s
   (closed-form states);
 - *minimum-time swing-up*: the bench's rod, |tau| <= 5 N m, one switch; reference by shooting (DOP853, rtol 1e-13:
-  :class:`ocp_constraints.bench.mesh_refinement.MinimumTimeReference`).
+  :class:`ocp_constraints.bench.mesh_refinement.MinimumTimeReference`);
+- *least-time arm*: the seventh newcomer's URDF arm (``scripts/refinement_newcomer7/arm2.urdf``) from hanging to
+  (-pi/4, pi/4) rad at rest, |shoulder| <= 6 N m, |elbow| <= 2 N m: three jumps; reference by shooting on Lagrange's
+  equations from the energies (``tests/newcomer_reference.arm_least_time_shooting``; the states' error not computed).
 
 Per row: met, points, CPU of the solve (``time.process_time``), the true states error (largest over a fine grid, SI
 units) and the final-time error where free, the states' estimate, and the located or imposed switch times' error.
@@ -18,14 +22,19 @@ units) and the final-time error where free, the states' estimate, and the locate
 from __future__ import annotations
 
 import argparse
+import importlib.util
 import math
+import sys
 import time
+from pathlib import Path
 
 import casadi as ca
 import numpy as np
 
 import ocp_constraints as oc
 from ocp_constraints.bench.mesh_refinement import MinimumTimeReference, minimum_time_swing_up, true_error
+
+ROOT = Path(__file__).resolve().parent.parent
 
 
 def block() -> oc.OptimalControlProblem:
@@ -55,6 +64,40 @@ def fuel() -> oc.OptimalControlProblem:
     problem.bound("um", 0.0, 4.0)
     problem.minimize_integral(problem.quantity("up") + problem.quantity("um"), label="fuel")
     return problem
+
+
+def arm() -> oc.OptimalControlProblem:
+    robot = oc.load_urdf(str(ROOT / "scripts" / "refinement_newcomer7" / "arm2.urdf"), base="ground",
+                         gravity=(0.0, -9.81, 0.0))
+    problem = oc.OptimalControlProblem(robot.model, t_final=1.0, t_final_bounds=(0.1, 5.0))
+    start, end = np.array([-np.pi / 2, 0.0]), np.array([-np.pi / 4, np.pi / 4])
+    robot.set_boundary(problem, "initial", start)
+    robot.set_boundary(problem, "final", end)
+    robot.set_guess(problem, lambda s: start + (end - start) * (3 * np.clip(s, 0, 1) ** 2 - 2 * np.clip(s, 0, 1) ** 3)[:, None])
+    problem.bound("shoulder.tau", -6.0, 6.0)
+    problem.bound("elbow.tau", -2.0, 2.0)
+    problem.minimize_final_time()
+    return problem
+
+
+def _arm_truth(sol):
+    """The switch times and T against the shooting reference seeded from them (NaN where the structure differs)."""
+    reference = sys.modules.get("newcomer_reference")
+    if reference is None:       # the tests' independent references (no ocp_constraints in them)
+        spec = importlib.util.spec_from_file_location("newcomer_reference", ROOT / "tests" / "newcomer_reference.py")
+        reference = sys.modules["newcomer_reference"] = importlib.util.module_from_spec(spec)
+        spec.loader.exec_module(reference)
+    arcs = sol.mesh_refinement.get("input_arcs") or []
+    ends = {q: [a["end"] for a in arcs if a["quantity"] == q][:-1] for q in ("shoulder.tau", "elbow.tau")}
+    switches = sorted(s["t"] for s in sol.mesh_refinement.get("switches_located", []) if s["kind"] == "bang-bang")
+    if len(ends["shoulder.tau"]) == 1 and len(ends["elbow.tau"]) == 2:
+        found = [ends["elbow.tau"][0], ends["shoulder.tau"][0], ends["elbow.tau"][1]]
+    elif len(switches) == 3:
+        found = switches
+    else:
+        return float("nan"), float("nan"), [float("nan")] * 3
+    times = reference.arm_least_time_shooting([*found, sol.t_final])
+    return float("nan"), abs(sol.t_final - times[3]), sorted(times[:3])
 
 
 def _piecewise(t, switches, accelerations):
@@ -100,18 +143,23 @@ def _switch_error(sol, exact) -> float:
 def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--tolerances", type=float, nargs="+", default=[1e-3, 1e-4, 1e-5, 1e-6, 1e-7, 1e-8])
+    ap.add_argument("--cases", nargs="+", help="problems to run (default: all)")
     ap.add_argument("--out")
     args = ap.parse_args(argv)
-    reference = MinimumTimeReference(minimum_time_swing_up().solve(oc.Radau(160, degree=3)))
+    reference = None
 
     def swing_truth(sol):
+        nonlocal reference
+        reference = reference or MinimumTimeReference(minimum_time_swing_up().solve(oc.Radau(160, degree=3)))
         return true_error(sol, reference.truth)["states"], abs(sol.t_final - reference.t_final), [reference.t1]
 
     cases = {"block": (block, _block_truth), "least-fuel slider": (fuel, _fuel_truth),
-             "minimum-time swing-up": (minimum_time_swing_up, swing_truth)}
+             "minimum-time swing-up": (minimum_time_swing_up, swing_truth), "least-time arm": (arm, _arm_truth)}
     lines = ["| problem | tolerance | met | points | CPU (s) | states: true / estimate | final time error (s) | "
              "switch time error (s) |", "|---|---|---|---|---|---|---|---|"]
     for name, (build, truth) in cases.items():
+        if args.cases and name not in args.cases:
+            continue
         for tol in args.tolerances:
             cpu = time.process_time()
             sol = build().solve(tolerance=tol)

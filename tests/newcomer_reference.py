@@ -168,3 +168,45 @@ def radau_solve(system: LagrangeSystem, N: int, t_final, lagrangian: ca.SX, init
     Ws = np.atleast_2d(sol.value(Wv)) if m else np.zeros((0, N * degree))
     return {"objective": float(sol.value(J)), "iterations": int(sol.stats()["iter_count"]), "t": t, "X": Xs,
             "W": Ws, "t_final": Tf, "f": f}
+
+
+def arm_least_time_shooting(seed_times) -> np.ndarray:
+    """The URDF arm's least-time motion as bang-bang torques by shooting, independent of the library: Lagrange's
+    equations from the energies (tests/newcomer_reference.py; links 0.5 m / 1 kg and 0.4 m / 0.8 kg, slender rods,
+    gravity -9.81 along y), the elbow motor's reaction on link 1; the shoulder at +6 N m then -6, the elbow at -2 N m,
+    +2, -2; unknowns (elbow switch 1, shoulder switch, elbow switch 2, T) by Newton on the end state, DOP853 at rtol
+    1e-12. The arc structure is read off the library's solution (``seed_times``): an assumption, as the swing-up's.
+    Returns the four times (s); used by tests/test_mesh_refinement_switches.py and scripts/bang_bang_jumps.py."""
+    from scipy.integrate import solve_ivp
+
+    q, w = ca.SX.sym("q", 2), ca.SX.sym("w", 2)
+    e = lambda a: ca.vertcat(ca.cos(a), ca.sin(a), 0)       # noqa: E731
+    rod = lambda m, L: np.diag([1e-4, m * L**2 / 12, m * L**2 / 12])       # noqa: E731
+    bodies = [RigidBody(1.0, rod(1.0, 0.5), 0.25 * e(q[0]), rot3(q[0])),
+              RigidBody(0.8, rod(0.8, 0.4), 0.5 * e(q[0]) + 0.2 * e(q[0] + q[1]), rot3(q[0] + q[1]))]
+    s0 = LagrangeSystem(q, w, bodies, np.array([0.0, -9.81, 0.0]))
+    z = lambda v: ca.vertcat(0, 0, v)       # noqa: E731
+    Q = s0.torque_work(0, z(w[0])) + s0.torque_work(1, z(w[1])) - s0.torque_work(0, z(w[1]))
+    s = LagrangeSystem(q, w, bodies, np.array([0.0, -9.81, 0.0]), Q)
+    f = ca.Function("f", [ca.vertcat(q, s.qd), w], [ca.vertcat(s.qd, s.qdd)])
+
+    def end(x):
+        te1, ts, te2, T = x
+        cuts = sorted({0.0, te1, ts, te2, T})
+        y = np.array([-np.pi / 2, 0.0, 0.0, 0.0])
+        for a, b in zip(cuts[:-1], cuts[1:]):
+            m = 0.5 * (a + b)
+            tau = [6.0 if m < ts else -6.0, -2.0 if m < te1 or m > te2 else 2.0]
+            y = solve_ivp(lambda t, y: np.asarray(f(y, tau)).ravel(), (a, b), y, method="DOP853", rtol=1e-12,
+                          atol=1e-12).y[:, -1]
+        return y - np.array([-np.pi / 4, np.pi / 4, 0.0, 0.0])
+
+    x = np.array(seed_times, float)
+    for _ in range(20):
+        r = end(x)
+        if np.abs(r).max() < 1e-11:
+            break
+        J = np.column_stack([(end(x + d) - end(x - d)) / 2e-7 for d in np.eye(4) * 1e-7])
+        x = x - np.linalg.solve(J, r)
+    assert np.abs(end(x)).max() < 1e-10
+    return x

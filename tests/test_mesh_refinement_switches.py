@@ -4,12 +4,15 @@ synthetic point values whose switch is known by construction."""
 from __future__ import annotations
 
 import math
+import sys
 import warnings
+from pathlib import Path
 
 import casadi as ca
 import numpy as np
 import pytest
 
+import ocp_constraints as oc
 from ocp_constraints import JumpWindowWarning, Model, OptimalControlProblem, joints
 from ocp_constraints.ocp.error_estimate import compare, names, sample_grid, values_at
 from ocp_constraints.ocp.mesh_refinement import refine, solve_to_tolerance
@@ -17,6 +20,8 @@ from ocp_constraints.ocp.mesh_solves import solver_floor
 from ocp_constraints.ocp.nonsmooth import merged_windows
 from ocp_constraints.ocp.schemes import Radau
 from ocp_constraints.ocp.switch_detection import activity, detect_switches, locate, split_points
+
+sys.path.insert(0, str(Path(__file__).parent))      # newcomer_reference, test_refinement_user_problems
 
 T_FINAL, T_SWITCH = math.sqrt(3.0), 1 / math.sqrt(3.0)
 FLOOR = solver_floor({})        # the error estimate's floor: IPOPT's tolerance
@@ -267,3 +272,39 @@ def test_a_jump_it_cannot_place_names_the_inputs_no_effort_term_holds(monkeypatc
     assert "Or give 'um', 'up', which no effort term holds, a small one" in record["message"]
     assert "problem.minimize_effort(['um', 'up'], weight=...)" in record["message"]
     assert "are the NLP's and can be further off" in record["message"]
+
+
+def test_a_two_link_arm_in_least_time_meets_1e_6_with_its_three_jumps_on_the_shooting_references():
+    """Two bang-bang torques (the shoulder one switch, the elbow two) on the seventh newcomer's URDF arm, from hanging
+    to (-pi/4, pi/4) rad at rest in least time, |tau| <= 6 and 2 N m, no effort term: each torque's arcs imposed, its
+    jumps free mesh points. Met at 1e-6; the three switch times and the final time within 1e-8 s of the shooting
+    reference's. Before session 35 the refinement imposed nothing here and 1e-3 was not met after 10 refinements (599 s
+    of CPU): the first interval's bound multipliers, which share Radau's extrapolated input at t0, read as an arc
+    pulling off its bound (:func:`.junction_times.holds`)."""
+    import pathlib
+    import tempfile
+
+    from newcomer_reference import arm_least_time_shooting
+    from test_refinement_user_problems import ARM_URDF
+
+    with tempfile.TemporaryDirectory() as folder:
+        path = pathlib.Path(folder) / "arm2.urdf"
+        path.write_text(ARM_URDF)
+        robot = oc.load_urdf(str(path), base="ground", gravity=(0.0, -9.81, 0.0))
+    problem = OptimalControlProblem(robot.model, t_final=1.0, t_final_bounds=(0.1, 5.0))
+    start, end = np.array([-np.pi / 2, 0.0]), np.array([-np.pi / 4, np.pi / 4])
+    robot.set_boundary(problem, "initial", start)
+    robot.set_boundary(problem, "final", end)
+    robot.set_guess(problem, lambda s: start + (end - start) * (3 * np.clip(s, 0, 1) ** 2 - 2 * np.clip(s, 0, 1) ** 3)[:, None])
+    problem.bound("shoulder.tau", -6.0, 6.0)
+    problem.bound("elbow.tau", -2.0, 2.0)
+    problem.minimize_final_time()
+    sol = problem.solve(tolerance=1e-6)
+    record = sol.mesh_refinement
+    assert record["met"], record["message"]
+    arcs = record["input_arcs"]
+    shoulder = [a["end"] for a in arcs if a["quantity"] == "shoulder.tau"][:-1]
+    elbow = [a["end"] for a in arcs if a["quantity"] == "elbow.tau"][:-1]
+    assert len(shoulder) == 1 and len(elbow) == 2
+    found = np.array([elbow[0], shoulder[0], elbow[1], sol.t_final])
+    assert np.abs(found - arm_least_time_shooting(found)).max() < 1e-8
