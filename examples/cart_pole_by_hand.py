@@ -51,6 +51,7 @@ for name in ("cart.vbar_x", "pole.omega_z"):
 ocp.bound("push", -40.0, 40.0)
 ocp.minimize_effort(["push"])
 
-sol = ocp.solve(oc.Radau(30, degree=3))
-print(f"{sol.status} in {sol.iterations} iterations, objective {sol.objective:.6f}")
-print(f"largest hinge force {np.abs(sol.loads()['hinge@pole.F_y']).max():.3f} N")
+if __name__ == "__main__":       # the model and problem alone where another script loads this one (runpy)
+    sol = ocp.solve(oc.Radau(30, degree=3))
+    print(f"{sol.status} in {sol.iterations} iterations, objective {sol.objective:.6f}")
+    print(f"largest hinge force {np.abs(sol.loads()['hinge@pole.F_y']).max():.3f} N")
