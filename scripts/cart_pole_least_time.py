@@ -9,7 +9,6 @@ and each refinement's solves and CPU.
 from __future__ import annotations
 
 import argparse
-import math
 import runpy
 import time
 from pathlib import Path
@@ -21,14 +20,10 @@ EXAMPLE = Path(__file__).resolve().parent.parent / "examples" / "cart_pole_by_ha
 
 
 def problem(max_push: float) -> oc.OptimalControlProblem:
-    model = runpy.run_path(str(EXAMPLE))["model"]          # its model; its own problem is not solved
-    ocp = oc.OptimalControlProblem(model, t_final=2.0, t_final_bounds=(0.3, 6.0))
-    ocp.initial({"cart.x": 0.0, "cart.psi": 0.0, "cart.theta": 0.0, "cart.phi": 0.0,
-                 "pole.psi": 0.0, "pole.theta": 0.0, "pole.phi": 0.0})
-    ocp.final({"cart.x": 0.0, "pole.psi": math.pi})
-    for name in ("cart.vbar_x", "pole.omega_z"):
-        ocp.initial({name: 0.0})
-        ocp.final({name: 0.0})
+    example = runpy.run_path(str(EXAMPLE))["ocp"]          # its model and ends; its own problem is not solved
+    ocp = oc.OptimalControlProblem(example.model, t_final=2.0, t_final_bounds=(0.3, 6.0))
+    ocp.initial(dict(example.initial_values))
+    ocp.final(dict(example.final_values))
     ocp.bound("push", -max_push, max_push)
     ocp.minimize_final_time()
     return ocp

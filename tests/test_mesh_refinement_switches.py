@@ -12,7 +12,6 @@ import casadi as ca
 import numpy as np
 import pytest
 
-import ocp_constraints as oc
 from ocp_constraints import JumpWindowWarning, Model, OptimalControlProblem, joints
 from ocp_constraints.ocp.error_estimate import compare, names, sample_grid, values_at
 from ocp_constraints.ocp.mesh_refinement import refine, solve_to_tolerance
@@ -244,19 +243,18 @@ def test_a_least_fuel_slider_meets_1e_6_with_its_bang_off_bang_switches_on_the_c
     assert true <= record["estimate"]["states"] <= 1e-6
 
 
+def _bang_bang_script():
+    """scripts/bang_bang_jumps.py, whose problems (the least-fuel slider, the least-time arm) these tests solve."""
+    import importlib.util
+
+    spec = importlib.util.spec_from_file_location("bang_bang_jumps", Path(__file__).parents[1] / "scripts" / "bang_bang_jumps.py")
+    script = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(script)
+    return script
+
+
 def _least_fuel_slider() -> OptimalControlProblem:
-    model = Model("fuel", gravity=(0.0, -9.81, 0.0))
-    slider = model.add_body("slider", 1.0, 0.1 * np.eye(3), rotation="321")
-    joints.prismatic(model, "rail", slider.com, axis=(1, 0, 0))
-    up, um = model.add_input("up"), model.add_input("um")
-    model.add_force("thrust", slider.com, ca.vertcat(up - um, 0, 0))
-    problem = OptimalControlProblem(model, t_final=2.0)
-    problem.initial({"slider.x": 0.0, "slider.vbar_x": 0.0})
-    problem.final({"slider.x": 1.0, "slider.vbar_x": 0.0})
-    problem.bound("up", 0.0, 4.0)
-    problem.bound("um", 0.0, 4.0)
-    problem.minimize_integral(problem.quantity("up") + problem.quantity("um"), label="fuel")
-    return problem
+    return _bang_bang_script().fuel()
 
 
 def test_a_jump_it_cannot_place_names_the_inputs_no_effort_term_holds(monkeypatch):
@@ -281,25 +279,9 @@ def test_a_two_link_arm_in_least_time_meets_1e_6_with_its_three_jumps_on_the_sho
     reference's. Before session 35 the refinement imposed nothing here and 1e-3 was not met after 10 refinements (599 s
     of CPU): the first interval's bound multipliers, which share Radau's extrapolated input at t0, read as an arc
     pulling off its bound (:func:`.junction_times.holds`)."""
-    import pathlib
-    import tempfile
-
     from newcomer_reference import arm_least_time_shooting
-    from test_refinement_user_problems import ARM_URDF
 
-    with tempfile.TemporaryDirectory() as folder:
-        path = pathlib.Path(folder) / "arm2.urdf"
-        path.write_text(ARM_URDF)
-        robot = oc.load_urdf(str(path), base="ground", gravity=(0.0, -9.81, 0.0))
-    problem = OptimalControlProblem(robot.model, t_final=1.0, t_final_bounds=(0.1, 5.0))
-    start, end = np.array([-np.pi / 2, 0.0]), np.array([-np.pi / 4, np.pi / 4])
-    robot.set_boundary(problem, "initial", start)
-    robot.set_boundary(problem, "final", end)
-    robot.set_guess(problem, lambda s: start + (end - start) * (3 * np.clip(s, 0, 1) ** 2 - 2 * np.clip(s, 0, 1) ** 3)[:, None])
-    problem.bound("shoulder.tau", -6.0, 6.0)
-    problem.bound("elbow.tau", -2.0, 2.0)
-    problem.minimize_final_time()
-    sol = problem.solve(tolerance=1e-6)
+    sol = _bang_bang_script().arm().solve(tolerance=1e-6)     # the arm from scripts/refinement_newcomer7/arm2.urdf
     record = sol.mesh_refinement
     assert record["met"], record["message"]
     arcs = record["input_arcs"]
