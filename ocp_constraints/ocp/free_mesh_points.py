@@ -20,6 +20,9 @@ solution carries, and its interpolation, error estimates and warm starts see an 
 Only Radau (its weight at an interval's start is zero, so every point's quadrature weight comes from one interval,
 hence one phase), only the direct transcriptions (maximal or joint coordinates), and only problems whose point
 functions do not read the time itself (the elements evaluate ``t = s T``, which a phase's scale does not give).
+A free point belongs where something on either side of it is held (an input at its bounds, :mod:`.jump_arcs`): on a
+smooth solution the objective hardly depends on the mesh and the NLP optimizes its own discretization error (the
+swing-up on Radau 5 x 10 with two free points: 1,844 IPOPT iterations, the points moved 0.15 of the horizon).
 """
 from __future__ import annotations
 

@@ -76,7 +76,8 @@ class Scheme:
     _: KW_ONLY
     mesh: tuple[float, ...] | None = None
     # Inner mesh points (indices 1 .. intervals - 1) whose times are NLP variables: the horizon is cut there into
-    # phases of unknown length (Radau only; :mod:`.free_mesh_points`).
+    # phases of unknown length (Radau only; :mod:`.free_mesh_points`). Meant for jumps held on both sides (a refinement
+    # puts a bang-bang input's there itself); on a smooth solution the NLP would tune its own discretization error.
     free_points: tuple[int, ...] = ()
     tau: np.ndarray = field(init=False, repr=False, compare=False)
 
