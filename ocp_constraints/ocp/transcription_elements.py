@@ -116,7 +116,8 @@ class ElementKinds:
         if phased:
             of_points = index["phases"] + phase_of_points(self)
             of_intervals = index["phases"] + phase_of_intervals(self.scheme)
-            s.P_points, s.P_intervals = (lambda i: of_points[np.asarray(i)][:, None]), (lambda k: of_intervals[np.asarray(k)][:, None])
+            s.P_points = lambda i: of_points[np.asarray(i)][:, None]           # one index per instance: its phase's
+            s.P_intervals = lambda k: of_intervals[np.asarray(k)][:, None]
         else:
             s.P_points = s.P_intervals = lambda _: index["T"]
         return [*self._point_elements(s), *self._interval_elements(s), *self._end_elements(s)]
