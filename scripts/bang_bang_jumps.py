@@ -1,6 +1,6 @@
 """Bang-bang inputs refined to a tolerance, against their closed forms or an independent reference (issue 19).
 
-    python scripts/bang_bang_jumps.py [--tolerances 1e-3 1e-4 1e-5 1e-6 1e-7 1e-8] [--cases NAME ...]
+    python scripts/bang_bang_jumps.py [--tolerances 1e-3 1e-4 1e-5 1e-6 1e-7 1e-8] [--cases NAME ...] [--coordinates C]
         [--out results/bench/bang_bang_jumps.md]
     PYTHONPATH=<a checkout of an older commit> python scripts/bang_bang_jumps.py ...     # the same rows before a change
 
@@ -144,6 +144,7 @@ def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--tolerances", type=float, nargs="+", default=[1e-3, 1e-4, 1e-5, 1e-6, 1e-7, 1e-8])
     ap.add_argument("--cases", nargs="+", help="problems to run (default: all)")
+    ap.add_argument("--coordinates", choices=["auto", "joint", "maximal"], help="the NLP's coordinates (default: auto)")
     ap.add_argument("--out")
     args = ap.parse_args(argv)
     reference = None
@@ -162,7 +163,9 @@ def main(argv=None) -> int:
             continue
         for tol in args.tolerances:
             cpu = time.process_time()
-            sol = build().solve(tolerance=tol)
+            problem = build()
+            problem.coordinates = args.coordinates or problem.coordinates
+            sol = problem.solve(tolerance=tol)
             cpu = time.process_time() - cpu
             mr = sol.mesh_refinement
             states, t_final, switches = truth(sol)
