@@ -118,7 +118,6 @@ def solved_view(tr, w: np.ndarray):
     nominal = tr.scheme.mesh_fractions
     view.arcs = tuple(replace(a, start=float(np.interp(a.start, nominal, mesh)), end=float(np.interp(a.end, nominal, mesh)))
                       for a in tr.arcs)
-    view.nominal = tr
     return view
 
 

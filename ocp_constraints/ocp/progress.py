@@ -114,9 +114,9 @@ class _Without:
         return len(s)
 
     def flush(self) -> None:
-        if self.pending and self.text not in self.pending:
+        if self.text not in self.pending:
             self.stream.write(self.pending)
-            self.pending = ""
+        self.pending = ""
         self.stream.flush()
 
 
