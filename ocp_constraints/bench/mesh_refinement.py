@@ -30,7 +30,8 @@ from pathlib import Path
 import numpy as np
 
 from ..errors import OCPSolveError
-from ..ocp.error_estimate import compare, names, sample_grid, values_at
+from ..ocp.error_estimate import compare, inward, names, sample_grid, values_at
+from ..ocp.interpolation import imposed_jumps
 from ..ocp.problem import OptimalControlProblem
 from ..ocp.schemes import Radau
 from ..scenes.registry import build_task
@@ -79,10 +80,17 @@ class SwingUpTruth:
 
 
 def true_error(sol, truth) -> dict[str, float]:
-    """Errors of ``sol`` against ``truth(sol, fractions)`` (a reference's values), per quantity."""
+    """Errors of ``sol`` against ``truth(sol, fractions)`` (a reference's values), per quantity, each sample read as
+    the estimate reads it (a mesh point as its interval's limit, :func:`~ocp_constraints.ocp.error_estimate.inward`);
+    none at the instant of an imposed jump, where the inputs and multipliers have two values (each side's is read
+    next to it) and a reference one."""
     fractions, owner = sample_grid(sol.transcription, 4)
-    est = compare(values_at(sol, fractions), truth(sol, fractions), fractions, owner, sol.transcription.scheme.intervals,
-                  names(sol))
+    keep = np.ones(fractions.size, bool)
+    for at in imposed_jumps(sol.transcription):
+        keep &= np.abs(fractions - at) > 1e-9
+    fractions, owner, mesh = fractions[keep], owner[keep], sol.transcription.scheme.mesh_fractions
+    est = compare(values_at(sol, fractions, inward(fractions, owner, mesh)), truth(sol, fractions), fractions, owner,
+                  sol.transcription.scheme.intervals, names(sol))
     return est.totals
 
 

@@ -29,6 +29,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from .arc_floor import arc_floor
+from .interpolation import interval_of, starts_at_imposed_jumps
 from .junction_floors import kink_floor, with_junction_samples
 
 SAFETY = 2.0
@@ -134,16 +135,39 @@ def sample_grid(transcription, per_point: int = SAMPLES_PER_POINT) -> tuple[np.n
     return np.concatenate(fractions), np.concatenate(owner)
 
 
-def values_at(solution, fractions: np.ndarray) -> dict[str, np.ndarray]:
+def values_at(solution, fractions: np.ndarray, probes=None) -> dict[str, np.ndarray]:
     """States (``nx x n``), multipliers and inputs of ``solution`` at normalized times ``fractions``,
     queried by name (:meth:`OCPSolution.polynomial`): the same for a solution of the maximal NLP
     and of the joint-coordinate one, whose states and multipliers are the bodies' (the joints'
-    multipliers from their bodies' balances, :mod:`~ocp_constraints.mechanics.generalized`)."""
+    multipliers from their bodies' balances, :mod:`~ocp_constraints.mechanics.generalized`).
+
+    ``probes`` (:func:`inward`): per time, a time just inside the interval meant to read it, so that a time at a
+    mesh point reads that interval's limit. After an imposed jump (a bang-bang input's, on a free mesh point:
+    :func:`.interpolation.imposed_jumps`) the interval's inputs and multipliers are its own collocation points'
+    polynomial, as :meth:`OCPSolution.interpolate` reads them: through its start they bend over the whole jump.
+    Elsewhere they keep the start, also where a jump happens to fall on a mesh point: a steep ramp of an input held
+    by a small effort term looks so on a coarse mesh (least time plus 1e-6 of effort, the ramp 3e-5 of the horizon
+    wide at a mesh point), and read through its start the interval after it shows the solution and its companion
+    apart, which asks for the refinement that finds the ramp's arcs; read from its own points both agree to 1e-10
+    and the first mesh "met" with the rail's moment off by its whole jump over the ramp."""
     fractions = np.atleast_1d(np.asarray(fractions, dtype=float))
+    tr, columns = solution.transcription, solution.sample_columns()
+    intervals = None if probes is None else interval_of(tr, probes)
     # One interpolation matrix for every name (OCPSolution.polynomial's, built once: by name it cost ~25 us a name).
-    E, columns = solution.transcription.interpolation_matrix(fractions), solution.sample_columns()
-    return {q: (np.array([columns[n] for n in labels], float).reshape(len(labels), E.shape[1]) @ E.T).reshape(len(labels), fractions.size)
+    E = tr.interpolation_matrix(fractions, intervals=intervals)
+    jumped = starts_at_imposed_jumps(tr)
+    E_own = tr.interpolation_matrix(fractions, algebraic=jumped, intervals=intervals) if jumped.any() else E
+    return {q: (np.array([columns[n] for n in labels], float).reshape(len(labels), E.shape[1])
+                @ (E if q == "states" else E_own).T).reshape(len(labels), fractions.size)
             for q, labels in names(solution).items()}
+
+
+def inward(fractions: np.ndarray, owner: np.ndarray, mesh: np.ndarray) -> np.ndarray:
+    """Each time moved a millionth of the way to the middle of its interval ``owner`` (of ``mesh``): for
+    :func:`values_at`, a mesh point read as the end of the interval before or the start of the one after, on
+    another mesh too (a companion's free mesh point lies ~1e-12 of the horizon from the solution's)."""
+    middle = 0.5 * (mesh[owner] + mesh[owner + 1])
+    return fractions + 1e-6 * (middle - fractions)
 
 
 def names(solution) -> dict[str, list[str]]:
@@ -296,7 +320,8 @@ def estimate_error(solution, companion, safety: float = SAFETY, windows=(), swit
     states' is at least ``safety`` times the solution's own error there (:func:`.arc_floor.arc_floor`: its gap from
     the bound and its rate, which the companion shares)."""
     fractions, owner = with_junction_samples(sample_grid(solution.transcription), solution, companion)
-    ours, theirs = values_at(solution, fractions), values_at(companion, fractions)
+    probes = inward(fractions, owner, solution.transcription.scheme.mesh_fractions)
+    ours, theirs = values_at(solution, fractions, probes), values_at(companion, fractions, probes)
     est = compare(ours, theirs, fractions, owner, solution.transcription.scheme.intervals, names(solution), windows)
     est.objective_change, est.state_change = resolution(solution, companion, ours["states"], theirs["states"])
     est.totals = {q: safety * v for q, v in est.totals.items()}

@@ -66,7 +66,24 @@ def jumps_at_starts(transcription, values: np.ndarray) -> np.ndarray:
     return out
 
 
-def interpolation_matrix(transcription, fractions, algebraic: bool = False) -> np.ndarray:
+def imposed_jumps(transcription) -> dict[float, str]:
+    """Where two imposed arcs of one input meet (fraction of the horizon -> the input): a bang-bang input's jumps, free
+    mesh points whose times the NLP places (:mod:`.jump_arcs`). Each side of one is its own interval's polynomial,
+    exact there; the inputs and multipliers have two values at it."""
+    arcs = getattr(transcription, "arcs", ())
+    return {a.end: a.quantity for a in arcs for b in arcs if a.quantity == b.quantity and abs(a.end - b.start) <= 1e-9}
+
+
+def starts_at_imposed_jumps(transcription) -> np.ndarray:
+    """Per interval: whether it starts at an imposed jump (:func:`imposed_jumps`)."""
+    mesh, at = transcription.scheme.mesh_fractions, np.array(list(imposed_jumps(transcription)), float)
+    out = np.zeros(transcription.scheme.intervals, bool)
+    if at.size:
+        out[1:] = np.abs(mesh[1:-1, None] - at[None, :]).min(axis=1) <= 1e-9
+    return out
+
+
+def interpolation_matrix(transcription, fractions, algebraic=False, intervals=None) -> np.ndarray:
     """``E`` (``len(fractions) x points``) at normalized times ``fractions`` in ``[0, 1]``.
 
     ``algebraic`` (inputs and multipliers): on a Radau interval after the first, the polynomial through
@@ -75,17 +92,22 @@ def interpolation_matrix(transcription, fractions, algebraic: bool = False) -> n
     point: the dynamics there belong to that interval, and an input or multiplier that jumps at the
     mesh point is exact on both sides only this way (through the start, a bang-bang torque read +0.53
     where every point of the interval held -1). The states are continuous and keep the start.
+
+    ``algebraic`` may also be one flag per interval (read so there only), and ``intervals`` the interval whose
+    polynomial reads each time (default: the one it lies in), so that a time at a mesh point reads the limit from
+    the side asked (:func:`.error_estimate.values_at`).
     """
     tr = transcription
     fractions = np.atleast_1d(np.asarray(fractions, dtype=float))
     mesh = tr.scheme.mesh_fractions
-    k_of = interval_of(tr, fractions, ending=algebraic)
+    per_interval = np.broadcast_to(np.asarray(algebraic, dtype=bool), (tr.scheme.intervals,))
+    k_of = interval_of(tr, fractions, ending=algebraic is True) if intervals is None else np.asarray(intervals)
     E = np.zeros((len(fractions), tr.layout.n_points))
     # Intervals of one local scheme share their nodes in local time (0 at the interval's start, 1 at
     # its end): one basis evaluation for all their rows (a loop per interval cost ~3 ms a matrix).
     # Those whose start is read alike share one basis; with ``algebraic`` an interval whose start
     # is the previous one's (:func:`starts_shared`) leaves it out.
-    own = starts_shared(tr) & algebraic
+    own = starts_shared(tr) & per_interval
     keys = [(tr.local[k].label, bool(own[k])) for k in range(tr.scheme.intervals)]
     groups: dict[tuple[str, bool], int] = {}
     for k, key in enumerate(keys):

@@ -112,9 +112,9 @@ class Transcription(ElementKinds):
         """The points of interval ``k``, both ends included (the last shared with the next)."""
         return range(int(self.offsets[k]), int(self.offsets[k + 1]) + 1)
 
-    def interpolation_matrix(self, fractions, algebraic: bool = False) -> np.ndarray:
+    def interpolation_matrix(self, fractions, algebraic=False, intervals=None) -> np.ndarray:
         """Point values to values at normalized times (:func:`.interpolation.interpolation_matrix`)."""
-        return interpolation_matrix(self, fractions, algebraic)
+        return interpolation_matrix(self, fractions, algebraic, intervals)
 
     # -- bounds and guess ---------------------------------------------------------------------
     def _bounds(self, x0: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
