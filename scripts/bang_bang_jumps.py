@@ -17,7 +17,9 @@ Three problems whose inputs no effort term holds, each from the default first me
   equations from the energies (``tests/newcomer_reference.arm_least_time_shooting``; the states' error not computed).
 
 Per row: met, points, CPU of the solve (``time.process_time``), the true states error (largest over a fine grid, SI
-units) and the final-time error where free, the states' estimate, and the located or imposed switch times' error.
+units) and the final-time error where free, the states' estimate, the multipliers' true error (relative to the largest
+load, the instant of the jump left out: two values there) and estimate where the reference has loads (the swing-up's
+hinge, by hand), and the located or imposed switch times' error.
 """
 from __future__ import annotations
 
@@ -89,14 +91,16 @@ def _arm_truth(sol):
         spec.loader.exec_module(reference)
     arcs = sol.mesh_refinement.get("input_arcs") or []
     ends = {q: [a["end"] for a in arcs if a["quantity"] == q][:-1] for q in ("shoulder.tau", "elbow.tau")}
+    first = {q: next((a["value"] for a in arcs if a["quantity"] == q and a["start"] == 0.0), None)
+             for q in ("shoulder.tau", "elbow.tau")}
     switches = sorted(s["t"] for s in sol.mesh_refinement.get("switches_located", []) if s["kind"] == "bang-bang")
-    if len(ends["shoulder.tau"]) == 1 and len(ends["elbow.tau"]) == 2:
+    if len(ends["shoulder.tau"]) == 1 and len(ends["elbow.tau"]) == 2 and None not in first.values():
         found = [ends["elbow.tau"][0], ends["shoulder.tau"][0], ends["elbow.tau"][1]]
-    elif len(switches) == 3:
-        found = switches
+    elif len(switches) == 3:    # the arcs not imposed (an older library): the joint-coordinate optimum's structure
+        found, first = switches, {"shoulder.tau": 6.0, "elbow.tau": -2.0}
     else:
         return float("nan"), float("nan"), [float("nan")] * 3
-    times = reference.arm_least_time_shooting([*found, sol.t_final])
+    times = reference.arm_least_time_shooting([*found, sol.t_final], first["shoulder.tau"], first["elbow.tau"])
     return float("nan"), abs(sol.t_final - times[3]), sorted(times[:3])
 
 
@@ -152,12 +156,13 @@ def main(argv=None) -> int:
     def swing_truth(sol):
         nonlocal reference
         reference = reference or MinimumTimeReference(minimum_time_swing_up().solve(oc.Radau(160, degree=3)))
-        return true_error(sol, reference.truth)["states"], abs(sol.t_final - reference.t_final), [reference.t1]
+        errors = true_error(sol, reference.truth)
+        return (errors["states"], abs(sol.t_final - reference.t_final), [reference.t1]), errors["multipliers"]
 
     cases = {"block": (block, _block_truth), "least-fuel slider": (fuel, _fuel_truth),
              "minimum-time swing-up": (minimum_time_swing_up, swing_truth), "least-time arm": (arm, _arm_truth)}
-    lines = ["| problem | tolerance | met | points | CPU (s) | states: true / estimate | final time error (s) | "
-             "switch time error (s) |", "|---|---|---|---|---|---|---|---|"]
+    lines = ["| problem | tolerance | met | points | CPU (s) | states: true / estimate | multipliers: true / estimate | "
+             "final time error (s) | switch time error (s) |", "|---|---|---|---|---|---|---|---|---|"]
     for name, (build, truth) in cases.items():
         if args.cases and name not in args.cases:
             continue
@@ -168,9 +173,11 @@ def main(argv=None) -> int:
             sol = problem.solve(tolerance=tol)
             cpu = time.process_time() - cpu
             mr = sol.mesh_refinement
-            states, t_final, switches = truth(sol)
+            found = truth(sol)
+            (states, t_final, switches), loads = found if len(found) == 2 else (found, None)
+            loads = "-" if loads is None else f"{loads:.1e} / {mr['estimate']['multipliers']:.1e}"
             row = (f"| {name} | {tol:g} | {'yes' if mr['met'] else 'no'} | {sol.transcription.scheme.point_count} | "
-                   f"{cpu:.2f} | {states:.1e} / {mr['estimate']['states']:.1e} | {t_final:.1e} | "
+                   f"{cpu:.2f} | {states:.1e} / {mr['estimate']['states']:.1e} | {loads} | {t_final:.1e} | "
                    f"{_switch_error(sol, switches):.1e} |")
             print(row, flush=True)
             lines.append(row)

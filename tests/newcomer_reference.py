@@ -170,12 +170,14 @@ def radau_solve(system: LagrangeSystem, N: int, t_final, lagrangian: ca.SX, init
             "W": Ws, "t_final": Tf, "f": f}
 
 
-def arm_least_time_shooting(seed_times) -> np.ndarray:
+def arm_least_time_shooting(seed_times, shoulder_first: float = 6.0, elbow_first: float = -2.0) -> np.ndarray:
     """The URDF arm's least-time motion as bang-bang torques by shooting, independent of the library: Lagrange's
     equations from the energies (tests/newcomer_reference.py; links 0.5 m / 1 kg and 0.4 m / 0.8 kg, slender rods,
-    gravity -9.81 along y), the elbow motor's reaction on link 1; the shoulder at +6 N m then -6, the elbow at -2 N m,
-    +2, -2; unknowns (elbow switch 1, shoulder switch, elbow switch 2, T) by Newton on the end state, DOP853 at rtol
-    1e-12. The arc structure is read off the library's solution (``seed_times``): an assumption, as the swing-up's.
+    gravity -9.81 along y), the elbow motor's reaction on link 1; the shoulder at ``shoulder_first`` N m then its
+    opposite, the elbow at ``elbow_first``, its opposite, ``elbow_first`` again (two local optima are known: +6 / -2,
+    the joint-coordinate refinement's, and +6 / +2, 1.75e-4 s shorter, the maximal one's); unknowns (elbow switch 1,
+    shoulder switch, elbow switch 2, T) by Newton on the end state, DOP853 at rtol 1e-12. The arc structure is read
+    off the library's solution (``seed_times`` and the signs): an assumption, as the swing-up's.
     Returns the four times (s); used by tests/test_mesh_refinement_switches.py and scripts/bang_bang_jumps.py."""
     from scipy.integrate import solve_ivp
 
@@ -196,17 +198,17 @@ def arm_least_time_shooting(seed_times) -> np.ndarray:
         y = np.array([-np.pi / 2, 0.0, 0.0, 0.0])
         for a, b in zip(cuts[:-1], cuts[1:]):
             m = 0.5 * (a + b)
-            tau = [6.0 if m < ts else -6.0, -2.0 if m < te1 or m > te2 else 2.0]
+            tau = [shoulder_first if m < ts else -shoulder_first, elbow_first if m < te1 or m > te2 else -elbow_first]
             y = solve_ivp(lambda t, y: np.asarray(f(y, tau)).ravel(), (a, b), y, method="DOP853", rtol=1e-12,
                           atol=1e-12).y[:, -1]
         return y - np.array([-np.pi / 4, np.pi / 4, 0.0, 0.0])
 
     x = np.array(seed_times, float)
-    for _ in range(20):
-        r = end(x)
-        if np.abs(r).max() < 1e-11:
-            break
+    for _ in range(20):     # at least one Newton step: seeds already within the end tolerance are moved by it too
         J = np.column_stack([(end(x + d) - end(x - d)) / 2e-7 for d in np.eye(4) * 1e-7])
-        x = x - np.linalg.solve(J, r)
+        step = np.linalg.solve(J, end(x))
+        x = x - step
+        if np.abs(step).max() < 1e-13:
+            break
     assert np.abs(end(x)).max() < 1e-10
     return x
