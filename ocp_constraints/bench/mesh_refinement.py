@@ -30,8 +30,7 @@ from pathlib import Path
 import numpy as np
 
 from ..errors import OCPSolveError
-from ..ocp.error_estimate import compare, inward, names, sample_grid, values_at
-from ..ocp.interpolation import imposed_jumps
+from ..ocp.error_estimate import compare, names, truth_samples, values_at
 from ..ocp.problem import OptimalControlProblem
 from ..ocp.schemes import Radau
 from ..scenes.registry import build_task
@@ -44,8 +43,7 @@ MAX_FIXED_POINTS = 700
 
 
 def _task(scene: str, task: str, coordinates: str = "auto") -> OptimalControlProblem:
-    """A built-in task in ``coordinates`` (default the library's "auto"), the same for the refined
-    solves and the fixed meshes they are compared with."""
+    """A built-in task in ``coordinates`` (default "auto"), the same for the refined solves and the fixed meshes."""
     problem = build_task(scene, task)[1]
     problem.coordinates = coordinates
     return problem
@@ -80,16 +78,10 @@ class SwingUpTruth:
 
 
 def true_error(sol, truth) -> dict[str, float]:
-    """Errors of ``sol`` against ``truth(sol, fractions)`` (a reference's values), per quantity, each sample read as
-    the estimate reads it (a mesh point as its interval's limit, :func:`~ocp_constraints.ocp.error_estimate.inward`);
-    none at the instant of an imposed jump, where the inputs and multipliers have two values (each side's is read
-    next to it) and a reference one."""
-    fractions, owner = sample_grid(sol.transcription, 4)
-    keep = np.ones(fractions.size, bool)
-    for at in imposed_jumps(sol.transcription):
-        keep &= np.abs(fractions - at) > 1e-9
-    fractions, owner, mesh = fractions[keep], owner[keep], sol.transcription.scheme.mesh_fractions
-    est = compare(values_at(sol, fractions, inward(fractions, owner, mesh)), truth(sol, fractions), fractions, owner,
+    """Errors of ``sol`` against ``truth(sol, fractions)`` (a reference's values), per quantity, read on the samples
+    the estimate reads (:func:`~ocp_constraints.ocp.error_estimate.truth_samples`)."""
+    fractions, owner, probes = truth_samples(sol)
+    est = compare(values_at(sol, fractions, probes), truth(sol, fractions), fractions, owner,
                   sol.transcription.scheme.intervals, names(sol))
     return est.totals
 

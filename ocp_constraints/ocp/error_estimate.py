@@ -29,7 +29,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from .arc_floor import arc_floor
-from .interpolation import interval_of, starts_at_imposed_jumps
+from .interpolation import imposed_jumps, interval_of, starts_at_imposed_jumps
 from .junction_floors import kink_floor, with_junction_samples
 
 SAFETY = 2.0
@@ -168,6 +168,18 @@ def inward(fractions: np.ndarray, owner: np.ndarray, mesh: np.ndarray) -> np.nda
     another mesh too (a companion's free mesh point lies ~1e-12 of the horizon from the solution's)."""
     middle = 0.5 * (mesh[owner] + mesh[owner + 1])
     return fractions + 1e-6 * (middle - fractions)
+
+
+def truth_samples(solution, per_point: int = 4) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Fractions, their intervals and :func:`inward` probes to compare ``solution`` with a reference on (``per_point``
+    per collocation point, read as the estimate reads them); none at the instant of an imposed jump, where the inputs
+    and multipliers have two values (each side's is read next to it) and a reference one."""
+    fractions, owner = sample_grid(solution.transcription, per_point)
+    keep = np.ones(fractions.size, bool)
+    for at in imposed_jumps(solution.transcription):
+        keep &= np.abs(fractions - at) > 1e-9
+    fractions, owner = fractions[keep], owner[keep]
+    return fractions, owner, inward(fractions, owner, solution.transcription.scheme.mesh_fractions)
 
 
 def names(solution) -> dict[str, list[str]]:
