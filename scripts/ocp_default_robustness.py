@@ -68,10 +68,11 @@ def _newcomer(name: str):
 
 
 def _example(file: str):
-    """The script's own code up to its first ``ocp.solve``: the problem exactly as the example writes it."""
+    """The script's own code up to its first ``ocp.solve`` (or its ``if __name__ == "__main__":`` block, where it
+    solves there): the problem exactly as the example writes it."""
     def build():
         lines = (ROOT / "examples" / file).read_text().splitlines()
-        stop = next(i for i, line in enumerate(lines) if ".solve(" in line)
+        stop = next(i for i, line in enumerate(lines) if ".solve(" in line or line.startswith("if __name__"))
         namespace = {"__name__": "example_" + file[:-3]}
         exec(compile("\n".join(lines[:stop]), str(ROOT / "examples" / file), "exec"), namespace)
         return namespace["ocp"]
