@@ -99,9 +99,9 @@ def _arm_truth(sol):
     elif len(switches) == 3:    # the arcs not imposed (an older library): the joint-coordinate optimum's structure
         found, first = switches, {"shoulder.tau": 6.0, "elbow.tau": -2.0}
     else:
-        return float("nan"), float("nan"), [float("nan")] * 3
+        return float("nan"), float("nan"), [float("nan")] * 3, None
     times = reference.arm_least_time_shooting([*found, sol.t_final], first["shoulder.tau"], first["elbow.tau"])
-    return float("nan"), abs(sol.t_final - times[3]), sorted(times[:3])
+    return float("nan"), abs(sol.t_final - times[3]), sorted(times[:3]), None
 
 
 def _piecewise(t, switches, accelerations):
@@ -121,7 +121,7 @@ def _block_truth(sol):
     t = np.linspace(0.0, sol.t_final, 4001)
     x, v = _piecewise(t, [1 / math.sqrt(3)], [2.0, -1.0])
     err = max(np.abs(sol.interpolate("block.x", t) - x).max(), np.abs(sol.interpolate("block.x_dot", t) - v).max())
-    return err, abs(sol.t_final - math.sqrt(3)), [1 / math.sqrt(3)]
+    return err, abs(sol.t_final - math.sqrt(3)), [1 / math.sqrt(3)], None
 
 
 def _fuel_truth(sol):
@@ -129,7 +129,7 @@ def _fuel_truth(sol):
     t = np.linspace(0.0, 2.0, 4001)
     x, v = _piecewise(t, [t1, 2 - t1], [4.0, 0.0, -4.0])
     err = max(np.abs(sol.interpolate("slider.x", t) - x).max(), np.abs(sol.interpolate("slider.vbar_x", t) - v).max())
-    return err, 0.0, [t1, 2 - t1]
+    return err, 0.0, [t1, 2 - t1], None
 
 
 def _switch_error(sol, exact) -> float:
@@ -157,7 +157,7 @@ def main(argv=None) -> int:
         nonlocal reference
         reference = reference or MinimumTimeReference(minimum_time_swing_up().solve(oc.Radau(160, degree=3)))
         errors = true_error(sol, reference.truth)
-        return (errors["states"], abs(sol.t_final - reference.t_final), [reference.t1]), errors["multipliers"]
+        return errors["states"], abs(sol.t_final - reference.t_final), [reference.t1], errors["multipliers"]
 
     cases = {"block": (block, _block_truth), "least-fuel slider": (fuel, _fuel_truth),
              "minimum-time swing-up": (minimum_time_swing_up, swing_truth), "least-time arm": (arm, _arm_truth)}
@@ -173,8 +173,7 @@ def main(argv=None) -> int:
             sol = problem.solve(tolerance=tol)
             cpu = time.process_time() - cpu
             mr = sol.mesh_refinement
-            found = truth(sol)
-            (states, t_final, switches), loads = found if len(found) == 2 else (found, None)
+            states, t_final, switches, loads = truth(sol)    # loads: the multipliers' true error, None where unknown
             loads = "-" if loads is None else f"{loads:.1e} / {mr['estimate']['multipliers']:.1e}"
             row = (f"| {name} | {tol:g} | {'yes' if mr['met'] else 'no'} | {sol.transcription.scheme.point_count} | "
                    f"{cpu:.2f} | {states:.1e} / {mr['estimate']['states']:.1e} | {loads} | {t_final:.1e} | "
